@@ -1,0 +1,25 @@
+"""The Blender layer: the only package that imports bpy.
+
+Submodules register in order and unregister in reverse (hydra_storm's pattern). A failing
+registration is never swallowed: Blender shows the exception and the add-on stays disabled.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+MODULES = ("preferences", "properties", "operators", "ui")
+
+
+def _modules():
+    return [importlib.import_module(f".{name}", __package__) for name in MODULES]
+
+
+def register() -> None:
+    for module in _modules():
+        module.register()
+
+
+def unregister() -> None:
+    for module in reversed(_modules()):
+        module.unregister()

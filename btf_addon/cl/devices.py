@@ -1,0 +1,57 @@
+"""OpenCL platform and device discovery (what the doctor reports and what the renderer picks)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    platform: str
+    name: str
+    type: str  # "GPU", "CPU", "ACCELERATOR" or "OTHER"
+    compute_units: int
+    global_memory_mb: int
+    opencl_version: str
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+
+def list_devices() -> list[DeviceInfo]:
+    """All OpenCL devices of all platforms. Raises RuntimeError with a readable reason when
+    pyopencl is missing or no platform (ICD) is installed."""
+    try:
+        import pyopencl as cl
+    except ImportError as exc:
+        raise RuntimeError(f"pyopencl is not installed ({exc})") from None
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error as exc:
+        raise RuntimeError(f"no OpenCL platform found ({exc})") from None
+    devices = []
+    for platform in platforms:
+        try:
+            platform_devices = platform.get_devices()
+        except cl.Error:
+            continue  # a platform with no devices of its own
+        for d in platform_devices:
+            kind = ("GPU" if d.type & cl.device_type.GPU else
+                    "CPU" if d.type & cl.device_type.CPU else
+                    "ACCELERATOR" if d.type & cl.device_type.ACCELERATOR else "OTHER")  # fmt: skip
+            devices.append(DeviceInfo(
+                platform=platform.name.strip(), name=d.name.strip(), type=kind,
+                compute_units=int(d.max_compute_units),
+                global_memory_mb=int(d.global_mem_size // (1024 * 1024)),
+                opencl_version=d.version.strip(),
+            ))  # fmt: skip
+    return devices
+
+
+def best_device_index(devices: list[DeviceInfo]) -> int | None:
+    """Default choice: the GPU with the most compute units, else the first CPU device."""
+    if not devices:
+        return None
+    ranked = sorted(range(len(devices)),
+                    key=lambda i: (devices[i].type != "GPU", -devices[i].compute_units))  # fmt: skip
+    return ranked[0]

@@ -1,0 +1,1 @@
+"""Command-line tools: ``python -m btf_addon <command>`` (see ``--help``)."""

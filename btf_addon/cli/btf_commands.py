@@ -1,0 +1,205 @@
+"""BTF commands: info, eval, swatch, synth, convert."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..core.codecs import bytes_on_disk, load_btf
+from ..core.container import SUFFIX, write_container
+from ..core.dense import tabulate
+from ..core.errors import BTFError
+from ..core.grid import UBO2003, uniform_ring_grid
+from ..core.imageio import srgb8_from_linear, write_exr, write_png
+from ..core.presets import PRESETS, make_preset, preset_parameters
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("info", help="describe a BTF (JSON)")
+    p.add_argument("path", help="BTFbase material directory or .btfm container")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("eval", help="evaluate a BTF at queries from a .npy file")
+    p.add_argument("path")
+    p.add_argument("--queries", required=True, type=Path,
+                   help="(N, 6) float32 .npy: u, v, theta_i, phi_i, theta_v, phi_v (degrees)")
+    p.add_argument("--out", required=True, type=Path, help="(N, 3) float32 .npy output")
+    p.add_argument("--backend", choices=["numpy"], default="numpy")
+    p.add_argument("--units", choices=["value", "raw"], default="value",
+                   help="value: the project's convention (docs/conventions.md); raw: the codec's "
+                        "stored units (for MLVQ, the original decoder's 8-bit-scale RGB)")
+    p.set_defaults(func=cmd_eval)
+
+    p = sub.add_parser("swatch", help="write the flat sample for one light and view as EXR/PNG")
+    p.add_argument("path")
+    p.add_argument("--light", nargs=2, type=float, metavar=("THETA", "PHI"), required=True)
+    p.add_argument("--view", nargs=2, type=float, metavar=("THETA", "PHI"), required=True)
+    p.add_argument("--size", type=int, default=256, help="pixels per side (one texture tile)")
+    p.add_argument("-o", "--output", required=True, type=Path, help=".exr (values) or .png")
+    p.set_defaults(func=cmd_swatch)
+
+    p = sub.add_parser("synth", help=f"generate a synthetic BTF: {', '.join(PRESETS)}")
+    p.add_argument("preset", choices=list(PRESETS))
+    p.add_argument("-o", "--output", required=True, type=Path)
+    p.add_argument("--tabulate", default=None, metavar="GRID",
+                   help="store as a dense table: 'ubo' (81×81) or a ring step in degrees")
+    p.set_defaults(func=cmd_synth, accepts_params=True)
+
+    p = sub.add_parser("convert", help="BTFbase directory (or container) → .btfm container")
+    p.add_argument("src")
+    p.add_argument("dst", type=Path)
+    p.set_defaults(func=cmd_convert)
+
+
+def _container_format(path: Path) -> str:
+    return "btfbase-mlvq-text" if path.is_dir() else "btfm-container-v1"
+
+
+def cmd_info(args) -> int:
+    path = Path(args.path)
+    btf = load_btf(path)
+    meta = btf.meta
+    on_disk = bytes_on_disk(path, btf)
+    info = {
+        "path": str(path),
+        "format": _container_format(path),
+        "codec": meta.codec,
+        "name": meta.name,
+        "spatial_size": [meta.width, meta.height],
+        "angular_grid": meta.angular_grid,
+        "views": meta.n_views,
+        "lights": meta.n_lights,
+        "hdr": meta.hdr,
+        "tile_size_mm": list(meta.tile_size_mm),
+        "value_scale": meta.value_scale,
+        "bytes_on_disk": on_disk,
+        "raw_bytes": meta.raw_bytes,
+        "compression_ratio": (meta.raw_bytes / on_disk) if meta.raw_bytes else None,
+    }
+    report = path / "quantreport.txt" if path.is_dir() else None
+    if report and report.is_file():
+        m = re.search(r"compressed quantized = (\d+)\s+ratio = ([\d.]+)", report.read_text())
+        if m:
+            info["quantised_bytes_reported"] = int(m.group(1))
+            info["quantised_ratio_reported"] = float(m.group(2))
+    print(json.dumps(info, indent=2))
+    return 0
+
+
+def _save_npy_atomic(path: Path, array: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npy", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.save(fh, array)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load_queries(path: Path) -> np.ndarray:
+    try:
+        q = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise BTFError(f"{path}: no such file") from None
+    except (ValueError, OSError) as exc:
+        raise BTFError(f"{path}: not a readable .npy array ({exc})") from None
+    if q.ndim != 2 or q.shape[1] != 6 or not np.issubdtype(q.dtype, np.number):
+        raise BTFError(f"{path}: queries must be a numeric (N, 6) array, got {q.dtype} {q.shape}")
+    return q
+
+
+def cmd_eval(args) -> int:
+    btf = load_btf(args.path)
+    values = btf.evaluate_angles(load_queries(args.queries))
+    if args.units == "raw":
+        values = (values.astype(np.float64) / btf.meta.value_scale).astype(np.float32)
+    _save_npy_atomic(args.out, values.astype(np.float32))
+    return 0
+
+
+def swatch_image(btf, light: tuple[float, float], view: tuple[float, float], size: int):
+    """(size, size, 3) values over one tile; row 0 is the top (v = 1), as images are stored."""
+    c = (np.arange(size) + 0.5) / size
+    u, v = np.meshgrid(c, 1.0 - c)
+    n = size * size
+    q = np.column_stack([u.ravel(), v.ravel(), np.full(n, light[0]), np.full(n, light[1]),
+                         np.full(n, view[0]), np.full(n, view[1])])  # fmt: skip
+    return btf.evaluate_angles(q).reshape(size, size, 3)
+
+
+def cmd_swatch(args) -> int:
+    if not 1 <= args.size <= 8192:
+        raise BTFError(f"--size must be between 1 and 8192, got {args.size}")
+    suffix = args.output.suffix.lower()
+    if suffix not in (".exr", ".png"):
+        raise BTFError(f"{args.output}: output must end in .exr or .png")
+    image = swatch_image(load_btf(args.path), tuple(args.light), tuple(args.view), args.size)
+    if suffix == ".exr":
+        write_exr(args.output, image)
+    else:
+        # PNG shows reflectance factor (value × π): a white Lambertian lit head-on is 1.0.
+        write_png(args.output, srgb8_from_linear(image * np.pi))
+    return 0
+
+
+def parse_preset_params(preset: str, tokens: list[str]) -> dict:
+    """``--name value`` pairs → typed keyword arguments (types from the preset's defaults)."""
+    defaults = preset_parameters(preset)
+    params = {}
+    it = iter(tokens)
+    for token in it:
+        if not token.startswith("--"):
+            raise BTFError(f"unexpected argument {token!r}; parameters look like --albedo 0.8")
+        name = token[2:].replace("-", "_")
+        value = next(it, None)
+        if value is None:
+            raise BTFError(f"parameter --{name} needs a value")
+        if name not in defaults:
+            raise BTFError(f"preset {preset!r} has no parameter --{name}; "
+                           f"its parameters: {', '.join('--' + k for k in defaults)}")  # fmt: skip
+        default = defaults[name]
+        try:
+            parts = [float(x) for x in value.split(",")]
+        except ValueError:
+            raise BTFError(f"--{name}: {value!r} is not a number or comma-separated list") from None
+        if isinstance(default, int) and not isinstance(default, bool):
+            if len(parts) != 1 or parts[0] != int(parts[0]):
+                raise BTFError(f"--{name} must be an integer, got {value!r}")
+            params[name] = int(parts[0])
+        else:
+            params[name] = parts[0] if len(parts) == 1 else tuple(parts)
+    return params
+
+
+def cmd_synth(args) -> int:
+    try:
+        btf = make_preset(args.preset, **parse_preset_params(args.preset, args.extra))
+    except ValueError as exc:
+        raise BTFError(str(exc)) from None
+    if args.tabulate:
+        if args.tabulate == "ubo":
+            grid = UBO2003
+        else:
+            try:
+                grid = uniform_ring_grid(float(args.tabulate))
+            except ValueError:
+                raise BTFError(f"--tabulate: 'ubo' or a step in degrees, got {args.tabulate!r}") from None
+        btf = tabulate(btf, grid, grid)
+    write_container(_with_suffix(args.output), btf)
+    return 0
+
+
+def _with_suffix(path: Path) -> Path:
+    return path if path.suffix else path.with_suffix(SUFFIX)
+
+
+def cmd_convert(args) -> int:
+    write_container(_with_suffix(args.dst), load_btf(args.src))
+    return 0

@@ -1,0 +1,52 @@
+"""``envmap``: virtual lights from an equirectangular EXR."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..core.envmap import Environment
+from ..core.errors import BTFError
+from ..core.imageio import read_exr
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("envmap", help="importance-sampled virtual lights from an HDR map (.npz)")
+    p.add_argument("map", type=Path, help="equirectangular .exr (Blender's orientation)")
+    p.add_argument("--lights", type=int, default=256, help="number of virtual lights N")
+    p.add_argument("--seed", type=int, default=0, help="seed of the Sobol digital shift")
+    p.add_argument("--rotation", type=float, default=0.0,
+                   help="Z rotation in degrees, as a Mapping node's Z rotation in the World")
+    p.add_argument("--strength", type=float, default=1.0, help="Background strength")
+    p.add_argument("-o", "--output", required=True, type=Path)
+    p.set_defaults(func=cmd_envmap)
+
+
+def cmd_envmap(args) -> int:
+    if args.lights < 1:
+        raise BTFError(f"--lights must be at least 1, got {args.lights}")
+    try:
+        env = Environment(read_exr(args.map), strength=args.strength,
+                          rotation_z_rad=np.radians(args.rotation))  # fmt: skip
+    except ValueError as exc:
+        raise BTFError(f"{args.map}: {exc}") from None
+    lights = env.virtual_lights(args.lights, seed=args.seed)
+    out = args.output if args.output.suffix == ".npz" else args.output.with_suffix(".npz")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".npz", dir=out.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, direction=lights.direction.astype(np.float32),
+                     radiance=lights.radiance.astype(np.float32),
+                     pdf=lights.pdf.astype(np.float32),
+                     nonfinite_pixels=np.int64(env.nonfinite_count))  # fmt: skip
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    if env.nonfinite_count:
+        print(f"warning: {env.nonfinite_count} NaN/Inf pixels in {args.map} were set to 0")
+    return 0

@@ -1,0 +1,106 @@
+"""One function per optional part of the system; each returns a JSON-able dict or raises.
+
+The doctor runs each probe in its own subprocess, so a driver that crashes the process
+(it happens with broken GPU stacks) is reported instead of taking the doctor down.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import platform
+import sys
+
+
+def probe_blender() -> dict:
+    if importlib.util.find_spec("bpy") is None:
+        raise RuntimeError("the bpy module is not installed")
+    import bpy
+
+    return {"version": bpy.app.version_string, "background": bool(bpy.app.background),
+            "python": platform.python_version()}  # fmt: skip
+
+
+def probe_opencl() -> dict:
+    from ..cl.devices import best_device_index, list_devices
+
+    devices = list_devices()
+    if not devices:
+        raise RuntimeError("OpenCL platforms exist but offer no devices")
+    return {"devices": [d.to_json() for d in devices], "default_device": best_device_index(devices)}
+
+
+def probe_opengl() -> dict:
+    from ..gl.context import probe_egl
+
+    return probe_egl()
+
+
+def probe_hidraw() -> dict:
+    import hid  # noqa: F401  (libusb backend; cannot see Bluetooth Wiimotes, imported to report)
+    import hidraw  # the Linux hidraw backend this add-on uses for Bluetooth HID
+
+    version = getattr(hidraw, "__version__", None) or _dist_version("hidapi")
+    return {"module": "hidraw", "hidapi_version": version}
+
+
+def probe_openxr() -> dict:
+    import ctypes.util
+
+    found = {}
+    if importlib.util.find_spec("xr") is not None:
+        import xr
+
+        found["pyopenxr"] = getattr(xr, "__version__", "installed")
+    loader = ctypes.util.find_library("openxr_loader")
+    if loader:
+        found["loader"] = loader
+    if not found:
+        raise RuntimeError("neither the pyopenxr package nor an OpenXR loader library was found")
+    return found
+
+
+def probe_openexr() -> dict:
+    import OpenEXR
+
+    return {"version": getattr(OpenEXR, "__version__", _dist_version("openexr"))}
+
+
+def _dist_version(name: str) -> str | None:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return None
+
+
+PROBES = {
+    "blender": (probe_blender,
+                "Install Blender as a Python module: pip install bpy==5.0.1 (Python 3.11), "
+                "or run inside Blender 4.2+."),
+    "opencl": (probe_opencl,
+               "Install a GPU vendor's OpenCL driver, or the CPU driver from PyPI: "
+               "pip install pocl-binary-distribution; final renders need OpenCL."),
+    "opengl": (probe_opengl,
+               "Install Mesa's EGL and DRI drivers (Debian: apt-get install libegl1 libegl-mesa0 "
+               "libgl1-mesa-dri) for the headless GLSL renderer."),
+    "hidraw": (probe_hidraw,
+               "Install hidapi (pip install hidapi) on Linux for Wiimote support; the add-on works "
+               "without a controller."),
+    "openxr": (probe_openxr,
+               "Optional: install an OpenXR runtime and pip install pyopenxr to drive headsets "
+               "outside Blender's own VR session."),
+    "openexr": (probe_openexr, "Install OpenEXR (pip install openexr) to read and write EXR files."),
+}  # fmt: skip
+
+
+def run_probe(name: str) -> None:
+    """Subprocess entry: print the probe's JSON result (or its error) on stdout."""
+    import json
+
+    func = PROBES[name][0]
+    try:
+        result = {"ok": True, **func()}
+    except Exception as exc:  # report any failure as data: the doctor must never crash
+        result = {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
+    sys.stdout.write("\n@@PROBE@@" + json.dumps(result) + "\n")

@@ -1,0 +1,89 @@
+"""Analytic BTFs, exact at every direction (ground truth for interpolation error).
+
+``LambertianBTF``: value = ρ/π · cos θi — Cycles' Diffuse BSDF.
+``GGXBTF``: microfacet GGX without Fresnel, as Cycles' Glossy BSDF (GGX): α = roughness²,
+D = α²/(π(1 + (α² − 1)cos²θh)²), height-correlated Smith G = 1/(1 + Λ(ωi) + Λ(ωo)) with
+Λ = (−1 + √(1 + α² tan²θ))/2, BRDF = tint·D·G/(4 cos θi cos θo); value = BRDF·cos θi.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .model import BTF, BTFMeta, Queries
+
+#: Below this roughness the GGX lobe is a near-delta that no tabulation or sampler resolves.
+MIN_ROUGHNESS = 1e-2
+
+
+def _rgb(value: Any, what: str) -> np.ndarray:
+    rgb = np.broadcast_to(np.asarray(value, dtype=np.float64), (3,)).copy()
+    if not np.all(np.isfinite(rgb)) or rgb.min() < 0:
+        raise ValueError(f"{what} must be finite and non-negative, got {value!r}")
+    return rgb
+
+
+class LambertianBTF(BTF):
+    def __init__(self, albedo: Any = 0.8, tile_size_mm: tuple[float, float] = (10.0, 10.0)):
+        self.albedo = _rgb(albedo, "albedo")
+        self.meta = BTFMeta(codec="lambertian", name="lambertian", width=1, height=1,
+                            n_views=0, n_lights=0, angular_grid="analytic",
+                            tile_size_mm=tuple(tile_size_mm))  # fmt: skip
+
+    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+        return self.albedo[None, :] / np.pi * q.wi[:, 2:3]
+
+    def tables(self) -> dict[str, np.ndarray]:
+        return {"albedo": self.albedo.astype(np.float32)}
+
+    def params(self) -> dict[str, Any]:
+        return {"albedo": self.albedo.tolist(), "tile_size_mm": list(self.meta.tile_size_mm)}
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> LambertianBTF:
+        return cls(params["albedo"], tuple(params["tile_size_mm"]))
+
+
+def ggx_lambda(alpha2: float, cos_theta: np.ndarray) -> np.ndarray:
+    cos2 = np.maximum(cos_theta * cos_theta, 1e-12)
+    return 0.5 * (-1.0 + np.sqrt(1.0 + alpha2 * np.maximum(1.0 / cos2 - 1.0, 0.0)))
+
+
+def ggx_value(wi: np.ndarray, wo: np.ndarray, alpha2: float) -> np.ndarray:
+    """(M, 3) unit upper-hemisphere wi, wo → (M,) GGX value D·G/(4 cos θo) (tint 1)."""
+    h = wi + wo
+    h_len = np.linalg.norm(h, axis=1)
+    cos_h = np.where(h_len > 1e-12, h[:, 2] / np.maximum(h_len, 1e-12), 0.0)
+    d = alpha2 / (np.pi * (1.0 + (alpha2 - 1.0) * cos_h * cos_h) ** 2)
+    g = 1.0 / (1.0 + ggx_lambda(alpha2, wi[:, 2]) + ggx_lambda(alpha2, wo[:, 2]))
+    # value = D·G/(4 cos θo): cos θi cancels. At cos θo → 0, G falls like cos θo: finite.
+    return np.where((wi[:, 2] > 0) & (wo[:, 2] > 0), d * g / (4.0 * np.maximum(wo[:, 2], 1e-7)), 0.0)
+
+
+class GGXBTF(BTF):
+    def __init__(self, albedo: Any = 0.8, roughness: float = 0.3,
+                 tile_size_mm: tuple[float, float] = (10.0, 10.0)):  # fmt: skip
+        if not np.isfinite(roughness) or not 0.0 <= roughness <= 1.0:
+            raise ValueError(f"roughness must be in [0, 1], got {roughness!r}")
+        self.albedo = _rgb(albedo, "albedo")
+        self.roughness = float(roughness)
+        alpha = max(self.roughness, MIN_ROUGHNESS) ** 2
+        self.alpha2 = alpha * alpha
+        self.meta = BTFMeta(codec="ggx", name="ggx", width=1, height=1, n_views=0, n_lights=0,
+                            angular_grid="analytic", tile_size_mm=tuple(tile_size_mm))  # fmt: skip
+
+    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+        return self.albedo[None, :] * ggx_value(q.wi, q.wo, self.alpha2)[:, None]
+
+    def tables(self) -> dict[str, np.ndarray]:
+        return {"albedo": self.albedo.astype(np.float32)}
+
+    def params(self) -> dict[str, Any]:
+        return {"albedo": self.albedo.tolist(), "roughness": self.roughness,
+                "tile_size_mm": list(self.meta.tile_size_mm)}  # fmt: skip
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> GGXBTF:
+        return cls(params["albedo"], params["roughness"], tuple(params["tile_size_mm"]))

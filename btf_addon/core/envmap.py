@@ -1,0 +1,191 @@
+"""Environment lighting from an equirectangular HDR image: importance sampling and virtual lights.
+
+Orientation matches Blender's Environment Texture exactly (Cycles'
+``direction_to_equirectangular``): for a world direction d (Z up) the texture is read at
+s = (π − atan2(d_y, d_x)) / 2π across and at elevation asin(d_z) up, so the image centre faces
++X, s grows towards −Y, and the top row is the zenith. A Mapping node's Z rotation γ turns the
+lookup vector (m = R_z(γ)·d), so the world sees the map turned by −γ.
+
+The image is (H, W, 3) with row 0 at the top, as files store it. Sampling density: pixel
+luminance × sin θ (θ from the zenith at the pixel's centre row), piecewise constant in the image
+plane (marginal over rows, conditionals over columns); continuous positions inside a pixel.
+Solid-angle pdf = pdf_image / (2π² sin θ).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from .sequences import sobol_2d
+
+log = logging.getLogger(__name__)
+
+#: Rec.709 luminance (Blender's default scene-linear role).
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+#: sin θ never goes below this in a pdf: keeps pole samples finite.
+MIN_SIN_THETA = 1e-9
+
+
+@dataclass
+class VirtualLights:
+    """N directional lights. direction (N, 3) world, Z up; radiance (N, 3) of the environment in
+    that direction; pdf (N,) solid-angle density it was drawn with. A prefix of k lights estimates
+    ∫ f(ω) L(ω) dω ≈ (1/k) Σ_{i<k} f(ω_i) L_i / pdf_i."""
+
+    direction: np.ndarray
+    radiance: np.ndarray
+    pdf: np.ndarray
+
+    def weights(self, k: int | None = None) -> np.ndarray:
+        """(k, 3) irradiance carried by each of the first k lights: L_i / (pdf_i · k)."""
+        k = len(self.pdf) if k is None else k
+        return self.radiance[:k] / (self.pdf[:k, None] * k)
+
+    def irradiance(self, normals: np.ndarray, k: int | None = None) -> np.ndarray:
+        """(M, 3) normals → (M, 3) irradiance estimated from the first k lights."""
+        k = len(self.pdf) if k is None else k
+        cos = np.maximum(np.asarray(normals, dtype=np.float64) @ self.direction[:k].T, 0.0)
+        return cos @ self.weights(k)
+
+
+class Environment:
+    """An HDR environment (or a constant colour) that can be looked up and sampled."""
+
+    def __init__(self, image: np.ndarray, strength: float = 1.0, rotation_z_rad: float = 0.0):
+        image = np.asarray(image, dtype=np.float64)
+        if image.ndim == 2:
+            image = np.repeat(image[..., None], 3, axis=-1)
+        if image.ndim != 3 or image.shape[2] < 3 or min(image.shape[:2]) < 1:
+            raise ValueError(f"environment image must be (H, W, 3), got {image.shape}")
+        image = image[..., :3]
+        bad = ~np.isfinite(image)
+        self.nonfinite_count = int(np.count_nonzero(np.any(bad, axis=-1)))
+        self.negative_count = int(np.count_nonzero(np.any(image < 0, axis=-1)))
+        if self.nonfinite_count:
+            log.warning("environment: %d NaN/Inf pixels set to 0", self.nonfinite_count)
+        if self.negative_count:  # HDR files often hold tiny negative noise: not worth a warning
+            log.debug("environment: %d negative pixels set to 0", self.negative_count)
+        clean = np.where(bad | (image < 0), 0.0, image)
+        if not np.isfinite(strength) or strength < 0:
+            raise ValueError(f"environment strength must be finite and ≥ 0, got {strength!r}")
+        self.radiance = clean * float(strength)
+        self.height, self.width = self.radiance.shape[:2]
+        self.rotation_z_rad = float(rotation_z_rad)
+        self._build_distribution()
+
+    @classmethod
+    def constant(cls, rgb, strength: float = 1.0) -> Environment:
+        return cls(np.asarray(rgb, dtype=np.float64).reshape(1, 1, 3), strength)
+
+    def _build_distribution(self) -> None:
+        h, w = self.height, self.width
+        sin_rows = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+        lum = np.maximum(self.radiance @ LUMINANCE, 0.0)
+        weight = lum * sin_rows[:, None]
+        total = weight.sum()
+        # Far below this nothing is visible at all; also covers the all-zero map.
+        self.is_black = not (total > 0.0 and np.isfinite(total))
+        if self.is_black:
+            weight = np.broadcast_to(sin_rows[:, None], (h, w)).copy()
+        weight = weight / weight.sum()  # normalise first: 1e6-valued maps stay well scaled
+        row_mass = weight.sum(axis=1)
+        self.row_pdf = row_mass  # probability of each row
+        self.row_cdf = np.concatenate([[0.0], np.cumsum(row_mass)])
+        self.row_cdf /= self.row_cdf[-1]
+        safe = np.where(row_mass > 0, row_mass, 1.0)
+        self.col_pdf = np.where(row_mass[:, None] > 0, weight / safe[:, None], 1.0 / w)
+        self.col_cdf = np.concatenate([np.zeros((h, 1)), np.cumsum(self.col_pdf, axis=1)], axis=1)
+        self.col_cdf /= self.col_cdf[:, -1:]
+
+    # --- mapping ---------------------------------------------------------------------------
+    def _rot(self, angle: float) -> np.ndarray:
+        c, s = np.cos(angle), np.sin(angle)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    def image_coords(self, world_dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 3) world directions → (s, t) in [0, 1): s across, t down from the top row."""
+        d = np.asarray(world_dirs, dtype=np.float64) @ self._rot(self.rotation_z_rad).T
+        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+        s = np.mod((np.pi - np.arctan2(d[:, 1], d[:, 0])) / (2 * np.pi), 1.0)
+        t = np.arccos(np.clip(d[:, 2], -1.0, 1.0)) / np.pi
+        return s, np.minimum(t, np.nextafter(1.0, 0.0))
+
+    def directions_from_image_coords(self, s: np.ndarray, t: np.ndarray) -> np.ndarray:
+        theta = np.pi * t
+        phi = np.pi - 2 * np.pi * s
+        m = np.column_stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
+        return m @ self._rot(-self.rotation_z_rad).T
+
+    def _pixel(self, s: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        col = np.minimum((s * self.width).astype(np.int64), self.width - 1)
+        row = np.minimum((t * self.height).astype(np.int64), self.height - 1)
+        return row, col
+
+    def lookup(self, world_dirs: np.ndarray) -> np.ndarray:
+        """Radiance (N, 3) seen in each direction (nearest pixel, as Closest interpolation)."""
+        row, col = self._pixel(*self.image_coords(world_dirs))
+        return self.radiance[row, col]
+
+    # --- sampling --------------------------------------------------------------------------
+    def pdf(self, world_dirs: np.ndarray) -> np.ndarray:
+        """Solid-angle density (N,) of ``sample`` producing each direction."""
+        s, t = self.image_coords(world_dirs)
+        row, col = self._pixel(s, t)
+        pdf_image = self.row_pdf[row] * self.col_pdf[row, col] * self.width * self.height
+        sin_t = np.maximum(np.sin(np.pi * t), MIN_SIN_THETA)
+        return pdf_image / (2 * np.pi * np.pi * sin_t)
+
+    def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(N, 2) uniform numbers → direction (N, 3), radiance (N, 3), pdf (N,)."""
+        u = np.clip(np.asarray(u, dtype=np.float64), 0.0, np.nextafter(1.0, 0.0))
+        row = np.clip(np.searchsorted(self.row_cdf, u[:, 0], side="right") - 1, 0, self.height - 1)
+        row_lo = self.row_cdf[row]
+        row_w = np.maximum(self.row_cdf[row + 1] - row_lo, 1e-300)
+        dt = np.clip((u[:, 0] - row_lo) / row_w, 0.0, np.nextafter(1.0, 0.0))
+        cdf = self.col_cdf[row]
+        col = np.clip((cdf <= u[:, 1:2]).sum(axis=1) - 1, 0, self.width - 1)
+        col_lo = cdf[np.arange(len(row)), col]
+        col_w = np.maximum(cdf[np.arange(len(row)), col + 1] - col_lo, 1e-300)
+        ds = np.clip((u[:, 1] - col_lo) / col_w, 0.0, np.nextafter(1.0, 0.0))
+        s = (col + ds) / self.width
+        t = (row + dt) / self.height
+        pdf_image = self.row_pdf[row] * self.col_pdf[row, col] * self.width * self.height
+        sin_t = np.maximum(np.sin(np.pi * t), MIN_SIN_THETA)
+        return (self.directions_from_image_coords(s, t), self.radiance[row, col],
+                pdf_image / (2 * np.pi * np.pi * sin_t))  # fmt: skip
+
+    def invert(self, world_dirs: np.ndarray) -> np.ndarray:
+        """The (N, 2) uniform numbers that ``sample`` maps to these directions."""
+        s, t = self.image_coords(world_dirs)
+        row, col = self._pixel(s, t)
+        u0 = self.row_cdf[row] + (t * self.height - row) * self.row_pdf[row]
+        u1 = self.col_cdf[row, col] + (s * self.width - col) * self.col_pdf[row, col]
+        return np.column_stack([u0, u1])
+
+    def virtual_lights(self, n: int = 256, seed: int = 0) -> VirtualLights:
+        """N lights from a digitally shifted Sobol sequence: each prefix is stratified."""
+        if n < 1:
+            raise ValueError("need at least one virtual light")
+        direction, radiance, pdf = self.sample(sobol_2d(n, seed))
+        return VirtualLights(direction, radiance, pdf)
+
+    # --- reference integration -------------------------------------------------------------
+    def irradiance_reference(self, normals: np.ndarray, supersample: int = 4) -> np.ndarray:
+        """(M, 3) normals → (M, 3) irradiance by quadrature over every pixel (sub-sampled)."""
+        h, w = self.height, self.width
+        k = supersample
+        t = (np.arange(h * k) + 0.5) / (h * k)
+        s = (np.arange(w * k) + 0.5) / (w * k)
+        normals = np.asarray(normals, dtype=np.float64)
+        out = np.zeros((len(normals), 3))
+        d_omega_base = (2 * np.pi / (w * k)) * (np.pi / (h * k))
+        rad_cols = np.repeat(self.radiance, k, axis=1)  # (h, w·k, 3)
+        ss = np.broadcast_to(s, (w * k,))
+        for r in range(h * k):  # one sub-row at a time bounds memory for big maps
+            dirs = self.directions_from_image_coords(ss, np.full(w * k, t[r]))
+            cos = np.maximum(normals @ dirs.T, 0.0) * (np.sin(np.pi * t[r]) * d_omega_base)
+            out += cos @ rad_cols[r // k]
+        return out

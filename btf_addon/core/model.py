@@ -1,0 +1,144 @@
+"""The one interface every BTF codec implements.
+
+A BTF value is ``BTF(u, v, θi, φi, θv, φv) → RGB`` in the project's value convention
+(docs/conventions.md): **value = apparent BRDF × cos θi**, linear RGB, units 1/sr. A Lambertian
+albedo ρ therefore has value ρ/π·cos θi, and a directional light of irradiance E (measured
+perpendicular to the light) reflects radiance value·E.
+
+Queries come either as directions in the tangent frame (``evaluate``) or as angles in degrees
+(``evaluate_angles``, the BTFbase convention; see core/angles.py). Invalid rows — NaN/Inf
+anywhere, zero-length directions, either direction below the horizon (θ > 90°) — give 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .angles import angles_deg_from_directions, directions_from_angles_deg, normalize_directions
+
+#: Rows evaluated per chunk: bounds temporary memory for 10⁶-query calls.
+CHUNK = 1 << 17
+
+
+@dataclass(frozen=True)
+class BTFMeta:
+    """Metadata shared by all codecs.
+
+    width, height: texels along u and v. tile_size_mm: physical size of one texture repeat.
+    n_views, n_lights: the measurement (or tabulation) grid sizes; raw_bytes uses them.
+    value_scale: factor from the codec's stored units to the value convention.
+    """
+
+    codec: str
+    name: str
+    width: int
+    height: int
+    n_views: int
+    n_lights: int
+    angular_grid: str
+    hdr: bool = False
+    tile_size_mm: tuple[float, float] = (10.0, 10.0)
+    value_scale: float = 1.0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def raw_bytes(self) -> int:
+        """Size of the uncompressed 8-bit measurement: views × lights × w × h × 3."""
+        return self.n_views * self.n_lights * self.width * self.height * 3
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["tile_size_mm"] = list(self.tile_size_mm)
+        d["raw_bytes"] = self.raw_bytes
+        return d
+
+
+@dataclass
+class Queries:
+    """Valid query rows in both forms the codecs want.
+
+    uv: (M, 2) float64; wi, wo: (M, 3) unit float64 (light, view) with z ≥ 0;
+    theta_i, phi_i, theta_v, phi_v: (M,) degrees, theta in [0, 90], phi in [0, 360).
+    """
+
+    uv: np.ndarray
+    wi: np.ndarray
+    wo: np.ndarray
+    theta_i: np.ndarray
+    phi_i: np.ndarray
+    theta_v: np.ndarray
+    phi_v: np.ndarray
+
+
+class BTF:
+    """Base class: input sanitising, chunking and the zero policy live here once."""
+
+    meta: BTFMeta
+
+    # --- what codecs implement -------------------------------------------------------------
+    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+        """(M,) valid queries → (M, 3) float64 values in the value convention."""
+        raise NotImplementedError
+
+    def tables(self) -> dict[str, np.ndarray]:
+        """Arrays a GPU back end uploads (and the container stores)."""
+        raise NotImplementedError
+
+    def params(self) -> dict[str, Any]:
+        """JSON-serialisable parameters that, with ``tables()``, rebuild this BTF."""
+        raise NotImplementedError
+
+    # --- public evaluation -------------------------------------------------------------------
+    def evaluate(self, uv: np.ndarray, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """uv: (N, 2) texture coordinates (wrap); wi, wo: (N, 3) light/view directions in the
+        tangent frame (need not be normalised). Returns (N, 3) float32."""
+        uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+        wi, ok_i = normalize_directions(np.asarray(wi).reshape(-1, 3))
+        wo, ok_o = normalize_directions(np.asarray(wo).reshape(-1, 3))
+        ti, pi = angles_deg_from_directions(wi)
+        tv, pv = angles_deg_from_directions(wo)
+        valid = ok_i & ok_o & np.all(np.isfinite(uv), axis=1)
+        return self._run(valid, uv, wi, wo, ti, pi, tv, pv)
+
+    def evaluate_angles(self, queries: np.ndarray) -> np.ndarray:
+        """queries: (N, 6) rows [u, v, θi, φi, θv, φv] in texture units and degrees.
+        A negative θ means the direction on the other side: (−θ, φ) ≡ (θ, φ + 180°).
+        Returns (N, 3) float32."""
+        q = np.asarray(queries, dtype=np.float64).reshape(-1, 6)
+        valid = np.all(np.isfinite(q), axis=1)
+        q = np.where(valid[:, None], q, 0.0)
+        ti, pi = _canonical(q[:, 2], q[:, 3])
+        tv, pv = _canonical(q[:, 4], q[:, 5])
+        wi = directions_from_angles_deg(ti, pi)
+        wo = directions_from_angles_deg(tv, pv)
+        return self._run(valid, q[:, :2], wi, wo, ti, pi, tv, pv)
+
+    def _run(self, valid, uv, wi, wo, ti, pi, tv, pv) -> np.ndarray:
+        valid = valid & (ti <= 90.0) & (tv <= 90.0)
+        out = np.zeros((len(valid), 3), dtype=np.float32)
+        rows = np.flatnonzero(valid)
+        for start in range(0, len(rows), CHUNK):
+            r = rows[start : start + CHUNK]
+            q = Queries(uv[r], wi[r], wo[r], ti[r], pi[r], tv[r], pv[r])
+            values = self._evaluate_valid(q)
+            # The contract is finite and non-negative whatever a codec's arithmetic did.
+            out[r] = np.nan_to_num(np.maximum(values, 0.0), nan=0.0, posinf=0.0)
+        return out
+
+
+def _canonical(theta_deg: np.ndarray, phi_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    negative = theta_deg < 0.0
+    theta = np.abs(theta_deg)
+    phi = np.where(negative, phi_deg + 180.0, phi_deg) % 360.0
+    return theta, phi
+
+
+def wrap_texel(uv: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest texel with wrap-around: (M, 2) uv → column x, row y (int64)."""
+    # mod first: huge coordinates must not overflow the integer conversion.
+    x = np.floor(np.mod(uv[:, 0], 1.0) * width).astype(np.int64) % width
+    y = np.floor(np.mod(uv[:, 1], 1.0) * height).astype(np.int64) % height
+    return x, y

@@ -1,0 +1,39 @@
+"""Helpers shared by the tests: data locations, skips that state their reason, sampling."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED_BTFBASE = ROOT.parent / "shared" / "data" / "btfbase"
+MATERIALS = ("alu", "wallpaper")
+
+
+def shared_material(name: str) -> Path:
+    path = SHARED_BTFBASE / name
+    if not (path / "all_materialInfo.txt").is_file():
+        pytest.skip(f"real BTFbase data not found at {path}: it ships in ../shared beside CI's "
+                    "clone, not in a user's clone")  # fmt: skip
+    return path
+
+
+def studiolights_dir() -> Path:
+    """Blender's bundled HDR environments, found without importing bpy."""
+    spec = importlib.util.find_spec("bpy")
+    if spec is None or not spec.submodule_search_locations:
+        pytest.skip("the bpy module (which ships the studiolight EXRs) is not installed")
+    bpy_dir = Path(next(iter(spec.submodule_search_locations)))
+    found = sorted(bpy_dir.glob("*/datafiles/studiolights/world"))
+    if not found:
+        pytest.skip(f"no studiolights inside {bpy_dir}")
+    return found[-1]
+
+
+def random_hemisphere(rng: np.random.Generator, n: int) -> np.ndarray:
+    d = rng.normal(size=(n, 3))
+    d[:, 2] = np.abs(d[:, 2])
+    return d / np.linalg.norm(d, axis=1, keepdims=True)

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Checks the shared libraries that Blender's bpy module and the EGL/OpenGL tests need.
+# On Debian/Ubuntu, as root, installs the missing ones (saying which); otherwise prints the
+# apt-get line and fails. Nothing is installed when everything is already present.
+set -euo pipefail
+
+# library soname -> Debian package that provides it
+declare -A NEEDED=(
+  [libX11.so.6]=libx11-6 [libXrender.so.1]=libxrender1 [libXfixes.so.3]=libxfixes3
+  [libXi.so.6]=libxi6 [libxkbcommon.so.0]=libxkbcommon0 [libSM.so.6]=libsm6
+  [libICE.so.6]=libice6 [libXext.so.6]=libxext6 [libGL.so.1]=libgl1 [libEGL.so.1]=libegl1
+  [libEGL_mesa.so.0]=libegl-mesa0 [libvulkan.so.1]=libvulkan1
+)
+missing=()
+for lib in "${!NEEDED[@]}"; do
+  ldconfig -p 2>/dev/null | grep -q "$lib" || missing+=("${NEEDED[$lib]}")
+done
+# llvmpipe (software OpenGL through EGL) lives in the Mesa DRI package.
+compgen -G "/usr/lib/*/dri/swrast_dri.so" >/dev/null || missing+=(libgl1-mesa-dri)
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "system libraries: all present"
+  exit 0
+fi
+echo "system libraries missing, from Debian packages: ${missing[*]}"
+if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+  echo "installing them with apt-get (root)"
+  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+else
+  echo "install them with: sudo apt-get install ${missing[*]}" >&2
+  exit 1
+fi

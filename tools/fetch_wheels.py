@@ -1,0 +1,52 @@
+"""Download the wheels that blender_manifest.toml bundles, for every platform it lists.
+
+The manifest's ``wheels`` list is the single source of truth: each entry's file name says the
+package, version and platform tags, and this script asks pip for exactly that file. Files already
+present are kept, so the target is cheap to repeat.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def wheel_paths(manifest: Path = ROOT / "blender_manifest.toml") -> list[Path]:
+    with manifest.open("rb") as fh:
+        data = tomllib.load(fh)
+    return [ROOT / entry for entry in data.get("wheels", [])]
+
+
+def pip_download_args(wheel: Path) -> list[str]:
+    """pip arguments that fetch exactly ``wheel`` (name-version-python-abi-platform.whl)."""
+    name, version, python_tag, abi_tag, platform_tag = wheel.name[: -len(".whl")].split("-")
+    args = ["--no-deps", "--only-binary=:all:", "-d", str(wheel.parent)]
+    if platform_tag != "any":
+        args += ["--python-version", "3.11", "--implementation", "cp", "--abi", abi_tag]
+        for tag in platform_tag.split("."):
+            args += ["--platform", tag]
+    return [*args, f"{name}=={version}"]
+
+
+def main() -> int:
+    missing = [w for w in wheel_paths() if not w.exists()]
+    for wheel in missing:
+        wheel.parent.mkdir(parents=True, exist_ok=True)
+        print(f"fetching {wheel.name}", flush=True)
+        cmd = [sys.executable, "-m", "pip", "download", "-q", *pip_download_args(wheel)]
+        if subprocess.run(cmd, check=False).returncode != 0:
+            print(f"error: pip could not download {wheel.name}; is PyPI reachable?", file=sys.stderr)
+            return 1
+        if not wheel.exists():
+            print(f"error: pip downloaded a different file than {wheel.name}", file=sys.stderr)
+            return 1
+    print(f"wheels: {len(wheel_paths())} present in {ROOT / 'wheels'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
