@@ -46,8 +46,13 @@ class LambertianBTF(BTF):
         return cls(params["albedo"], tuple(params["tile_size_mm"]))
 
 
+#: Cosines are clamped here, identically in Λ and in the 1/(4 cos θo) factor, so that the
+#: value tends continuously to its finite grazing limit D/(2α) instead of a 0/0.
+MIN_COS = 1e-6
+
+
 def ggx_lambda(alpha2: float, cos_theta: np.ndarray) -> np.ndarray:
-    cos2 = np.maximum(cos_theta * cos_theta, 1e-12)
+    cos2 = np.maximum(cos_theta, MIN_COS) ** 2
     return 0.5 * (-1.0 + np.sqrt(1.0 + alpha2 * np.maximum(1.0 / cos2 - 1.0, 0.0)))
 
 
@@ -59,7 +64,8 @@ def ggx_value(wi: np.ndarray, wo: np.ndarray, alpha2: float) -> np.ndarray:
     d = alpha2 / (np.pi * (1.0 + (alpha2 - 1.0) * cos_h * cos_h) ** 2)
     g = 1.0 / (1.0 + ggx_lambda(alpha2, wi[:, 2]) + ggx_lambda(alpha2, wo[:, 2]))
     # value = D·G/(4 cos θo): cos θi cancels. At cos θo → 0, G falls like cos θo: finite.
-    return np.where((wi[:, 2] > 0) & (wo[:, 2] > 0), d * g / (4.0 * np.maximum(wo[:, 2], 1e-7)), 0.0)
+    return np.where((wi[:, 2] >= 0) & (wo[:, 2] >= 0),
+                    d * g / (4.0 * np.maximum(wo[:, 2], MIN_COS)), 0.0)  # fmt: skip
 
 
 class GGXBTF(BTF):

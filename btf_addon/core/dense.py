@@ -41,9 +41,15 @@ class DenseBTF(BTF):
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         x, y = wrap_texel(q.uv, self.meta.width, self.meta.height)
         vi, vw = self.view_grid.weights(q.theta_v, q.phi_v)
-        li, lw = self.light_grid.weights(q.theta_i, q.phi_i)
+        _, view_phi = self.view_grid.angles_deg()
         out = np.zeros((len(x), 3))
         for a in range(4):
+            # Azimuth-aligned: for the view sample at φa, read the light at φi − φv + φa, i.e.
+            # the same light azimuth relative to the view. Exact for isotropic reflectance under
+            # rotation, it keeps specular lobes sharp where independent blending would smear
+            # two displaced copies of a lobe (docs/accuracy.md has the numbers).
+            light_phi = q.phi_i - q.phi_v + view_phi[vi[:, a]]
+            li, lw = self.light_grid.weights(q.theta_i, light_phi)
             for b in range(4):
                 out += (vw[:, a] * lw[:, b])[:, None] * self.data[vi[:, a], li[:, b], y, x]
         # Past the last measured light ring: fade with the cosine that the values contain.

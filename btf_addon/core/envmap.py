@@ -174,18 +174,24 @@ class Environment:
 
     # --- reference integration -------------------------------------------------------------
     def irradiance_reference(self, normals: np.ndarray, supersample: int = 4) -> np.ndarray:
-        """(M, 3) normals → (M, 3) irradiance by quadrature over every pixel (sub-sampled)."""
+        """(M, 3) normals → (M, 3) irradiance by quadrature over every pixel.
+
+        Each pixel is split into sub-cells (at least 256 × 128 over the sphere, so tiny maps are
+        integrated as finely as large ones); a sub-cell's solid angle is exact
+        (Δφ·(cos θ0 − cos θ1)) and its cosine is taken at its centre.
+        """
         h, w = self.height, self.width
-        k = supersample
-        t = (np.arange(h * k) + 0.5) / (h * k)
-        s = (np.arange(w * k) + 0.5) / (w * k)
+        kr = max(supersample, -(-128 // h))
+        kc = max(supersample, -(-256 // w))
+        rows, cols = h * kr, w * kc
+        edges = np.pi * np.arange(rows + 1) / rows
+        band = (2 * np.pi / cols) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
+        s = (np.arange(cols) + 0.5) / cols
         normals = np.asarray(normals, dtype=np.float64)
         out = np.zeros((len(normals), 3))
-        d_omega_base = (2 * np.pi / (w * k)) * (np.pi / (h * k))
-        rad_cols = np.repeat(self.radiance, k, axis=1)  # (h, w·k, 3)
-        ss = np.broadcast_to(s, (w * k,))
-        for r in range(h * k):  # one sub-row at a time bounds memory for big maps
-            dirs = self.directions_from_image_coords(ss, np.full(w * k, t[r]))
-            cos = np.maximum(normals @ dirs.T, 0.0) * (np.sin(np.pi * t[r]) * d_omega_base)
-            out += cos @ rad_cols[r // k]
+        rad_cols = np.repeat(self.radiance, kc, axis=1)  # (h, cols, 3)
+        for r in range(rows):  # one sub-row at a time bounds memory for big maps
+            dirs = self.directions_from_image_coords(s, np.full(cols, (r + 0.5) / rows))
+            cos = np.maximum(normals @ dirs.T, 0.0) * band[r]
+            out += cos @ rad_cols[r // kr]
         return out

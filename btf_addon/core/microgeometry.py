@@ -48,8 +48,9 @@ def _bilinear(field: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 class MicrogeometryBTF(BTF):
     def __init__(self, height: np.ndarray, albedo: np.ndarray, texels: int, name: str,
                  tile_size_mm: tuple[float, float] = (10.0, 10.0)):  # fmt: skip
-        height = np.asarray(height, dtype=np.float64)
-        albedo = np.asarray(albedo, dtype=np.float64)
+        # Stored as float32, the container's precision, so a saved preset evaluates identically.
+        height = np.asarray(height, dtype=np.float32).astype(np.float64)
+        albedo = np.asarray(albedo, dtype=np.float32).astype(np.float64)
         f = height.shape[0]
         if height.shape != (f, f) or albedo.shape != (f, f, 3) or f % texels:
             raise ValueError("height (F, F), albedo (F, F, 3) with F a multiple of texels needed")
