@@ -14,6 +14,8 @@ class BTFMaterialSettings(PropertyGroup):
     )  # fmt: skip
     source: StringProperty(
         name="BTF Source", subtype="FILE_PATH", default="",
+        # Blender 4.5+ warns about "//" paths unless the property says it supports them.
+        options={"PATH_SUPPORTS_BLEND_RELATIVE"} if bpy.app.version >= (4, 5, 0) else set(),
         description="BTFbase material directory or .btfm file; relative paths (//) are kept "
                     "relative to the .blend so render farms find the data",
     )  # fmt: skip

@@ -9,6 +9,7 @@ says what was not understood and a constant fallback, never an exception.
 
 from __future__ import annotations
 
+import bpy
 import numpy as np
 
 from ..core.envmap import Environment
@@ -61,7 +62,10 @@ def environment_from_world(world) -> tuple[Environment, list[str]]:
     messages: list[str] = []
     if world is None:
         return Environment.constant((0.0, 0.0, 0.0)), ["the scene has no World: black"]
-    if not world.use_nodes or world.node_tree is None:
+    # Blender < 5 can switch a World's nodes off (then World.color lights the scene); Blender 5
+    # always uses the nodes and deprecates the switch, so it is only read on older versions.
+    nodes_off = bpy.app.version < (5, 0, 0) and not world.use_nodes
+    if nodes_off or world.node_tree is None:
         return Environment.constant(tuple(world.color)), messages
     output = _active_output(world.node_tree)
     background = _linked_node(output.inputs["Surface"]) if output else None

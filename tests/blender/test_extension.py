@@ -1,0 +1,67 @@
+"""The built extension: validated zip, real install path, clean register/unregister."""
+
+from __future__ import annotations
+
+import sys
+import zipfile
+
+from blender_helpers import EXTENSION_MODULE, init_gpu_module
+
+
+def test_zip_holds_the_extension_and_nothing_else(extension_zip):
+    names = zipfile.ZipFile(extension_zip).namelist()
+    assert "blender_manifest.toml" in names and "__init__.py" in names
+    assert "btf_addon/core/mlvq.py" in names
+    assert any(n.startswith("wheels/pyopencl-") and "manylinux" in n for n in names)
+    assert not any("win_amd64" in n or "macosx" in n for n in names)  # split per platform
+    banned = ("tests/", "docs/", ".venv/", "tools/", "benchmarks/", ".git", "__pycache__",
+              "Makefile", "pyproject.toml", "requirements-dev.txt", ".ci/")  # fmt: skip
+    assert [n for n in names if n.startswith(banned) or "/__pycache__/" in n] == []
+
+
+def test_installed_through_the_extension_path(bpy_module, installed):
+    assert installed.__name__ == EXTENSION_MODULE
+    assert "user_default/btf_materials" in installed.__file__.replace("\\", "/")
+    assert hasattr(bpy_module.types.Material, "btf")
+
+
+def test_register_unregister_register_leaves_nothing_stale(bpy_module, installed, fresh_scene):
+    import addon_utils
+
+    bpy = bpy_module
+    names = ("BTF_PT_material", "BTF_OT_check_system")
+
+    def registered_classes():
+        layer = [m for name, m in sys.modules.items()
+                 if name.startswith(EXTENSION_MODULE + ".btf_addon.blender.")]  # fmt: skip
+        return [c for m in layer for c in getattr(m, "classes", ())]
+
+    classes = registered_classes()
+    assert len(classes) >= 4 and all(c.is_registered for c in classes)
+    assert all(hasattr(bpy.types, n) for n in names)
+    addon_utils.disable(EXTENSION_MODULE, default_set=True)
+    assert EXTENSION_MODULE not in bpy.context.preferences.addons
+    assert not hasattr(bpy.types.Material, "btf")
+    assert "btf" not in bpy.types.Material.bl_rna.properties
+    assert not any(hasattr(bpy.types, n) for n in names)
+    assert not any(c.is_registered for c in classes)
+    addon_utils.enable(EXTENSION_MODULE, default_set=True)
+    assert all(hasattr(bpy.types, n) for n in names)
+    assert all(c.is_registered for c in registered_classes())
+    material = bpy.data.materials.new("m")
+    material.btf.enabled = True
+    material.btf.source = "//materials/alu"
+    material.btf.uv_scale = 2.5
+    assert (material.btf.enabled, material.btf.source) == (True, "//materials/alu")
+    assert bpy.ops.btf.check_system() == {"FINISHED"}
+
+
+def test_gpu_module_can_be_initialised_in_background(bpy_module, fresh_scene):
+    import gpu
+
+    init_gpu_module(bpy_module)
+    offscreen = gpu.types.GPUOffScreen(8, 8)
+    try:
+        assert offscreen.width == 8
+    finally:
+        offscreen.free()

@@ -1,0 +1,144 @@
+"""The command line as a user runs it: a real subprocess, exit codes, files, messages."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import ROOT, shared_material, studiolights_dir
+
+from btf_addon.core.codecs import load_btf
+from btf_addon.core.imageio import read_exr, write_exr
+
+
+def run_cli(*args, check=True, env=None):
+    proc = subprocess.run([sys.executable, "-m", "btf_addon", *map(str, args)], cwd=ROOT,
+                          capture_output=True, text=True, check=False, env=env)  # fmt: skip
+    if check:
+        assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def test_info_reports_the_raw_size_and_ratio():
+    out = json.loads(run_cli("info", shared_material("alu")).stdout)
+    assert out["codec"] == "mlvq"
+    assert out["spatial_size"] == [64, 64]
+    assert out["raw_bytes"] == 80_621_568
+    assert out["quantised_ratio_reported"] == pytest.approx(1002.008)
+    assert out["compression_ratio"] == pytest.approx(out["raw_bytes"] / out["bytes_on_disk"])
+    assert out["bytes_on_disk"] > 400_000  # the text tables, not the 80 kB quantised binary
+
+
+def test_eval_matches_the_library_and_raw_units(tmp_path, rng):
+    q = np.column_stack([rng.random(500), rng.random(500), rng.random(500) * 90,
+                         rng.random(500) * 360, rng.random(500) * 90,
+                         rng.random(500) * 360]).astype(np.float32)  # fmt: skip
+    np.save(tmp_path / "q.npy", q)
+    material = shared_material("wallpaper")
+    run_cli("eval", material, "--queries", tmp_path / "q.npy", "--out", tmp_path / "v.npy")
+    run_cli("eval", material, "--queries", tmp_path / "q.npy", "--out", tmp_path / "r.npy",
+            "--units", "raw")
+    values, raw = np.load(tmp_path / "v.npy"), np.load(tmp_path / "r.npy")
+    assert values.shape == (500, 3) and values.dtype == np.float32
+    btf = load_btf(material)
+    np.testing.assert_array_equal(values, btf.evaluate_angles(q))
+    np.testing.assert_allclose(raw * btf.meta.value_scale, values, rtol=1e-6)
+
+
+@pytest.mark.parametrize("bad", ["wrong_shape", "not_npy", "missing"])
+def test_eval_rejects_bad_queries(tmp_path, bad):
+    q = tmp_path / "q.npy"
+    if bad == "wrong_shape":
+        np.save(q, np.zeros((4, 5), np.float32))
+    elif bad == "not_npy":
+        q.write_text("1 2 3 4 5 6")
+    proc = run_cli("eval", shared_material("alu"), "--queries", q, "--out", tmp_path / "o.npy",
+                   check=False)  # fmt: skip
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("error: ") and "Traceback" not in proc.stderr
+    assert not (tmp_path / "o.npy").exists()
+
+
+def test_swatch_writes_exr_and_png(tmp_path):
+    material = shared_material("alu")
+    run_cli("swatch", material, "--light", 30, 0, "--view", 0, 0, "--size", 32, "-o",
+            tmp_path / "s.exr")  # fmt: skip
+    image = read_exr(tmp_path / "s.exr")
+    assert image.shape == (32, 32, 3) and image.min() >= 0 and image.max() > 0
+    btf = load_btf(material)
+    # Pixel (row 0, col 0) is the top-left: u = 1/64, v = 1 − 1/64.
+    want = btf.evaluate_angles([[1 / 64, 1 - 1 / 64, 30, 0, 0, 0]])[0]
+    np.testing.assert_allclose(image[0, 0], want, rtol=1e-6)
+    run_cli("swatch", material, "--light", 30, 0, "--view", 0, 0, "--size", 16, "-o",
+            tmp_path / "s.png")  # fmt: skip
+    assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_synth_and_convert_round_trip(tmp_path, rng):
+    run_cli("synth", "ggx", "--albedo", "0.8,0.6,0.4", "--roughness", 0.4, "-o", tmp_path / "g")
+    btf = load_btf(tmp_path / "g.btfm")
+    assert btf.meta.codec == "ggx" and btf.roughness == pytest.approx(0.4)
+    run_cli("synth", "lambertian", "--albedo", 0.5, "--tabulate", "ubo", "-o", tmp_path / "l.btfm")
+    assert load_btf(tmp_path / "l.btfm").meta.codec == "dense"
+    run_cli("convert", shared_material("alu"), tmp_path / "alu.btfm")
+    q = rng.random((200, 6)) * [1, 1, 90, 360, 90, 360]
+    np.testing.assert_array_equal(load_btf(tmp_path / "alu.btfm").evaluate_angles(q),
+                                  load_btf(shared_material("alu")).evaluate_angles(q))  # fmt: skip
+
+
+def test_synth_rejects_unknown_parameters(tmp_path):
+    proc = run_cli("synth", "ggx", "--shininess", 3, "-o", tmp_path / "g", check=False)
+    assert proc.returncode == 2 and "no parameter --shininess" in proc.stderr
+    proc = run_cli("synth", "ggx", "--roughness", 7, "-o", tmp_path / "g", check=False)
+    assert proc.returncode == 2 and "roughness must be in [0, 1]" in proc.stderr
+    assert not (tmp_path / "g.btfm").exists()
+
+
+def test_corrupt_container_gives_a_clear_error(tmp_path):
+    run_cli("synth", "lambertian", "-o", tmp_path / "m.btfm")
+    blob = (tmp_path / "m.btfm").read_bytes()
+    (tmp_path / "m.btfm").write_bytes(blob[: len(blob) - 20])
+    proc = run_cli("info", tmp_path / "m.btfm", check=False)
+    assert proc.returncode == 2 and "truncated" in proc.stderr and "Traceback" not in proc.stderr
+
+
+# --- envmap ----------------------------------------------------------------------------------
+
+
+def test_envmap_writes_lights(tmp_path):
+    out = tmp_path / "lights.npz"
+    run_cli("envmap", studiolights_dir() / "forest.exr", "--lights", 64, "--seed", 2,
+            "--rotation", 30, "-o", out)  # fmt: skip
+    data = np.load(out)
+    assert data["direction"].shape == (64, 3) and data["radiance"].shape == (64, 3)
+    assert data["pdf"].shape == (64,) and np.all(data["pdf"] > 0)
+    np.testing.assert_allclose(np.linalg.norm(data["direction"], axis=1), 1.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("case", ["zero", "nan", "huge", "1x1", "2x1", "odd"])
+def test_envmap_hard_maps_through_the_cli(tmp_path, case):
+    maps = {"zero": np.zeros((8, 16, 3)), "huge": np.full((8, 16, 3), 1e6),
+            "1x1": np.ones((1, 1, 3)), "2x1": np.ones((2, 1, 3)),
+            "odd": np.random.default_rng(1).random((5, 11, 3))}  # fmt: skip
+    img = maps.get(case, np.ones((8, 16, 3)))
+    if case == "nan":
+        img = img.copy()
+        img[2, 3] = np.nan
+        img[4, 5] = np.inf
+    write_exr(tmp_path / "m.exr", img)
+    proc = run_cli("envmap", tmp_path / "m.exr", "--lights", 32, "-o", tmp_path / "l.npz")
+    data = np.load(tmp_path / "l.npz")
+    for key in ("direction", "radiance", "pdf"):
+        assert np.all(np.isfinite(data[key]))
+    if case == "nan":
+        assert "2 NaN/Inf pixels" in proc.stdout
+
+
+def test_envmap_rejects_a_non_exr(tmp_path):
+    (tmp_path / "m.exr").write_text("not an image")
+    proc = run_cli("envmap", tmp_path / "m.exr", "-o", tmp_path / "l.npz", check=False)
+    assert proc.returncode == 2 and "not a readable OpenEXR" in proc.stderr
+    assert not (tmp_path / "l.npz").exists()
