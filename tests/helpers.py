@@ -16,8 +16,10 @@ MATERIALS = ("alu", "wallpaper")
 def shared_material(name: str) -> Path:
     path = SHARED_BTFBASE / name
     if not (path / "all_materialInfo.txt").is_file():
-        pytest.skip(f"real BTFbase data not found at {path}: it ships in ../shared beside CI's "
-                    "clone, not in a user's clone")  # fmt: skip
+        pytest.skip(
+            f"real BTFbase data not found at {path}: it ships in ../shared beside CI's "
+            "clone, not in a user's clone"
+        )
     return path
 
 

@@ -41,8 +41,9 @@ class ScalarMLVQ:
         self.p6sc = table(f"{self.name}_PDF6Dscale.txt")
         n = self.nb
         if self.cos_beta:
-            self.beta_deg = [math.degrees(math.asin(max(-1.0, min(1.0, -1 + 2 * i / (n - 1)))))
-                             for i in range(n)]  # fmt: skip
+            self.beta_deg = [
+                math.degrees(math.asin(max(-1.0, min(1.0, -1 + 2 * i / (n - 1))))) for i in range(n)
+            ]
         else:
             self.beta_deg = [i * 180 / (n - 1) - 90 for i in range(n)]
         self.beta_deg[0], self.beta_deg[(n - 1) // 2], self.beta_deg[-1] = -90.0, 0.0, 90.0
@@ -52,8 +53,12 @@ class ScalarMLVQ:
         p0, p1 = row[i], row[i + 1]
         m0 = p1 - p0 if i == 0 else 0.5 * (p1 - row[i - 1])
         m1 = p1 - p0 if i == self.nb - 2 else 0.5 * (p1 - p0)
-        return ((2 * w**3 - 3 * w**2 + 1) * p0 + (w**3 - 2 * w**2 + w) * m0
-                + (-2 * w**3 + 3 * w**2) * p1 + (w**3 - w**2) * m1)  # fmt: skip
+        return (
+            (2 * w**3 - 3 * w**2 + 1) * p0
+            + (w**3 - 2 * w**2 + w) * m0
+            + (-2 * w**3 + 3 * w**2) * p1
+            + (w**3 - w**2) * m1
+        )
 
     def pdf2(self, idx, ia, wa, ib, wb):
         lum_fn, col_fn = self.p2i[idx]
@@ -65,9 +70,11 @@ class ScalarMLVQ:
             cb += w * ab[0]
             cr += w * ab[1]
         assert not self.hdr, "the scalar reference covers the LDR path"
-        rgb = [1.1643828 * y + 1.5960273 * cr - 222.921,
-               1.1643828 * y - 0.39176172 * cb - 0.81296875 * cr + 135.576,
-               1.1643828 * y + 2.0172344 * cb - 276.836]  # fmt: skip
+        rgb = [
+            1.1643828 * y + 1.5960273 * cr - 222.921,
+            1.1643828 * y - 0.39176172 * cb - 0.81296875 * cr + 135.576,
+            1.1643828 * y + 2.0172344 * cb - 276.836,
+        ]
         return np.array([max(0.0, c) for c in rgb])
 
     def decode(self, u, v, ti, pi, tv, pv) -> np.ndarray:

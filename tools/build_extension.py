@@ -57,12 +57,16 @@ def main() -> int:
     args = parser.parse_args()
     missing = [w for w in wheel_paths() if not w.exists()]
     if missing:
-        print(f"error: {len(missing)} bundled wheels are missing; run `make wheels`", file=sys.stderr)
+        print(
+            f"error: {len(missing)} bundled wheels are missing; run `make wheels`", file=sys.stderr
+        )
         return 1
     try:
         zips = build(args.output_dir, split_platforms=not args.no_split)
     except subprocess.CalledProcessError:
-        print("error: Blender's extension builder rejected the package (see above)", file=sys.stderr)
+        print(
+            "error: Blender's extension builder rejected the package (see above)", file=sys.stderr
+        )
         return 1
     for zip_path in zips:
         print(f"built and validated {zip_path}")

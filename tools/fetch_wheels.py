@@ -23,7 +23,7 @@ def wheel_paths(manifest: Path = ROOT / "blender_manifest.toml") -> list[Path]:
 
 def pip_download_args(wheel: Path) -> list[str]:
     """pip arguments that fetch exactly ``wheel`` (name-version-python-abi-platform.whl)."""
-    name, version, python_tag, abi_tag, platform_tag = wheel.name[: -len(".whl")].split("-")
+    name, version, _python, abi_tag, platform_tag = wheel.name[: -len(".whl")].split("-")
     args = ["--no-deps", "--only-binary=:all:", "-d", str(wheel.parent)]
     if platform_tag != "any":
         args += ["--python-version", "3.11", "--implementation", "cp", "--abi", abi_tag]
@@ -39,7 +39,9 @@ def main() -> int:
         print(f"fetching {wheel.name}", flush=True)
         cmd = [sys.executable, "-m", "pip", "download", "-q", *pip_download_args(wheel)]
         if subprocess.run(cmd, check=False).returncode != 0:
-            print(f"error: pip could not download {wheel.name}; is PyPI reachable?", file=sys.stderr)
+            print(
+                f"error: pip could not download {wheel.name}; is PyPI reachable?", file=sys.stderr
+            )
             return 1
         if not wheel.exists():
             print(f"error: pip downloaded a different file than {wheel.name}", file=sys.stderr)

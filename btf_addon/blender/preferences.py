@@ -27,8 +27,14 @@ def device_items(_self=None, _context=None) -> list[tuple[str, str, str, int]]:
         best = best_device_index(devices)
         for i, d in enumerate(devices):
             label = f"{d.name} ({d.type}, {d.platform})" + (" — default" if i == best else "")
-            _device_items.append((f"DEV{i}", label, f"{d.compute_units} compute units, "
-                                  f"{d.global_memory_mb} MB", i + 1))  # fmt: skip
+            _device_items.append(
+                (
+                    f"DEV{i}",
+                    label,
+                    f"{d.compute_units} compute units, {d.global_memory_mb} MB",
+                    i + 1,
+                )
+            )
     return _device_items
 
 

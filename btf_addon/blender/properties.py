@@ -9,28 +9,53 @@ from bpy.types import PropertyGroup
 
 class BTFMaterialSettings(PropertyGroup):
     enabled: BoolProperty(
-        name="Use BTF", default=False,
+        name="Use BTF",
+        default=False,
         description="Render this material from a measured or synthetic BTF",
-    )  # fmt: skip
+    )
     source: StringProperty(
-        name="BTF Source", subtype="FILE_PATH", default="",
+        name="BTF Source",
+        subtype="FILE_PATH",
+        default="",
         # Blender 4.5+ warns about "//" paths unless the property says it supports them.
         options={"PATH_SUPPORTS_BLEND_RELATIVE"} if bpy.app.version >= (4, 5, 0) else set(),
         description="BTFbase material directory or .btfm file; relative paths (//) are kept "
-                    "relative to the .blend so render farms find the data",
-    )  # fmt: skip
-    uv_map: StringProperty(name="UV Map", default="",
-                           description="UV map for the BTF; empty uses the active render UV map")
+        "relative to the .blend so render farms find the data",
+    )
+    uv_map: StringProperty(
+        name="UV Map",
+        default="",
+        description="UV map for the BTF; empty uses the active render UV map",
+    )
     tile_size_mm: FloatProperty(
-        name="Tile Size", default=0.0, min=0.0, soft_max=1000.0, unit="LENGTH", subtype="DISTANCE",
+        name="Tile Size",
+        default=0.0,
+        min=0.0,
+        soft_max=1000.0,
+        unit="LENGTH",
+        subtype="DISTANCE",
         description="Physical size of one texture repeat; 0 uses the BTF's own size",
-    )  # fmt: skip
-    uv_scale: FloatProperty(name="UV Scale", default=1.0, min=1e-4, soft_max=100.0,
-                            description="Texture repeats per UV unit")  # fmt: skip
-    uv_rotation: FloatProperty(name="UV Rotation", default=0.0, subtype="ANGLE",
-                               description="Rotation of the BTF in UV space")  # fmt: skip
-    exposure: FloatProperty(name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0,
-                            description="Brightness change in stops (×2 per stop)")  # fmt: skip
+    )
+    uv_scale: FloatProperty(
+        name="UV Scale",
+        default=1.0,
+        min=1e-4,
+        soft_max=100.0,
+        description="Texture repeats per UV unit",
+    )
+    uv_rotation: FloatProperty(
+        name="UV Rotation",
+        default=0.0,
+        subtype="ANGLE",
+        description="Rotation of the BTF in UV space",
+    )
+    exposure: FloatProperty(
+        name="Exposure",
+        default=0.0,
+        soft_min=-10.0,
+        soft_max=10.0,
+        description="Brightness change in stops (×2 per stop)",
+    )
 
     @classmethod
     def register(cls) -> None:

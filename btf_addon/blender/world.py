@@ -83,8 +83,10 @@ def environment_from_world(world) -> tuple[Environment, list[str]]:
     if texture is None:
         return fallback, messages
     if texture.bl_idname != "ShaderNodeTexEnvironment" or texture.image is None:
-        messages.append(f"World colour comes from {texture.bl_label!r}, not an Environment "
-                        "Texture with an image: using the Background colour")  # fmt: skip
+        messages.append(
+            f"World colour comes from {texture.bl_label!r}, not an Environment "
+            "Texture with an image: using the Background colour"
+        )
         return fallback, messages
     if texture.projection != "EQUIRECTANGULAR":
         messages.append("mirror-ball projection is not supported: using the Background colour")

@@ -36,15 +36,25 @@ def list_devices() -> list[DeviceInfo]:
         except cl.Error:
             continue  # a platform with no devices of its own
         for d in platform_devices:
-            kind = ("GPU" if d.type & cl.device_type.GPU else
-                    "CPU" if d.type & cl.device_type.CPU else
-                    "ACCELERATOR" if d.type & cl.device_type.ACCELERATOR else "OTHER")  # fmt: skip
-            devices.append(DeviceInfo(
-                platform=platform.name.strip(), name=d.name.strip(), type=kind,
-                compute_units=int(d.max_compute_units),
-                global_memory_mb=int(d.global_mem_size // (1024 * 1024)),
-                opencl_version=d.version.strip(),
-            ))  # fmt: skip
+            kind = (
+                "GPU"
+                if d.type & cl.device_type.GPU
+                else "CPU"
+                if d.type & cl.device_type.CPU
+                else "ACCELERATOR"
+                if d.type & cl.device_type.ACCELERATOR
+                else "OTHER"
+            )
+            devices.append(
+                DeviceInfo(
+                    platform=platform.name.strip(),
+                    name=d.name.strip(),
+                    type=kind,
+                    compute_units=int(d.max_compute_units),
+                    global_memory_mb=int(d.global_mem_size // (1024 * 1024)),
+                    opencl_version=d.version.strip(),
+                )
+            )
     return devices
 
 
@@ -52,6 +62,7 @@ def best_device_index(devices: list[DeviceInfo]) -> int | None:
     """Default choice: the GPU with the most compute units, else the first CPU device."""
     if not devices:
         return None
-    ranked = sorted(range(len(devices)),
-                    key=lambda i: (devices[i].type != "GPU", -devices[i].compute_units))  # fmt: skip
+    ranked = sorted(
+        range(len(devices)), key=lambda i: (devices[i].type != "GPU", -devices[i].compute_units)
+    )
     return ranked[0]

@@ -26,13 +26,21 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("eval", help="evaluate a BTF at queries from a .npy file")
     p.add_argument("path")
-    p.add_argument("--queries", required=True, type=Path,
-                   help="(N, 6) float32 .npy: u, v, theta_i, phi_i, theta_v, phi_v (degrees)")
+    p.add_argument(
+        "--queries",
+        required=True,
+        type=Path,
+        help="(N, 6) float32 .npy: u, v, theta_i, phi_i, theta_v, phi_v (degrees)",
+    )
     p.add_argument("--out", required=True, type=Path, help="(N, 3) float32 .npy output")
     p.add_argument("--backend", choices=["numpy"], default="numpy")
-    p.add_argument("--units", choices=["value", "raw"], default="value",
-                   help="value: the project's convention (docs/conventions.md); raw: the codec's "
-                        "stored units (for MLVQ, the original decoder's 8-bit-scale RGB)")
+    p.add_argument(
+        "--units",
+        choices=["value", "raw"],
+        default="value",
+        help="value: the project's convention (docs/conventions.md); raw: the codec's "
+        "stored units (for MLVQ, the original decoder's 8-bit-scale RGB)",
+    )
     p.set_defaults(func=cmd_eval)
 
     p = sub.add_parser("swatch", help="write the flat sample for one light and view as EXR/PNG")
@@ -46,8 +54,12 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("synth", help=f"generate a synthetic BTF: {', '.join(PRESETS)}")
     p.add_argument("preset", choices=list(PRESETS))
     p.add_argument("-o", "--output", required=True, type=Path)
-    p.add_argument("--tabulate", default=None, metavar="GRID",
-                   help="store as a dense table: 'ubo' (81×81) or a ring step in degrees")
+    p.add_argument(
+        "--tabulate",
+        default=None,
+        metavar="GRID",
+        help="store as a dense table: 'ubo' (81×81) or a ring step in degrees",
+    )
     p.set_defaults(func=cmd_synth, accepts_params=True)
 
     p = sub.add_parser("convert", help="BTFbase directory (or container) → .btfm container")
@@ -129,8 +141,16 @@ def swatch_image(btf, light: tuple[float, float], view: tuple[float, float], siz
     c = (np.arange(size) + 0.5) / size
     u, v = np.meshgrid(c, 1.0 - c)
     n = size * size
-    q = np.column_stack([u.ravel(), v.ravel(), np.full(n, light[0]), np.full(n, light[1]),
-                         np.full(n, view[0]), np.full(n, view[1])])  # fmt: skip
+    q = np.column_stack(
+        [
+            u.ravel(),
+            v.ravel(),
+            np.full(n, light[0]),
+            np.full(n, light[1]),
+            np.full(n, view[0]),
+            np.full(n, view[1]),
+        ]
+    )
     return btf.evaluate_angles(q).reshape(size, size, 3)
 
 
@@ -162,8 +182,10 @@ def parse_preset_params(preset: str, tokens: list[str]) -> dict:
         if value is None:
             raise BTFError(f"parameter --{name} needs a value")
         if name not in defaults:
-            raise BTFError(f"preset {preset!r} has no parameter --{name}; "
-                           f"its parameters: {', '.join('--' + k for k in defaults)}")  # fmt: skip
+            raise BTFError(
+                f"preset {preset!r} has no parameter --{name}; "
+                f"its parameters: {', '.join('--' + k for k in defaults)}"
+            )
         default = defaults[name]
         try:
             parts = [float(x) for x in value.split(",")]
@@ -190,7 +212,9 @@ def cmd_synth(args) -> int:
             try:
                 grid = uniform_ring_grid(float(args.tabulate))
             except ValueError:
-                raise BTFError(f"--tabulate: 'ubo' or a step in degrees, got {args.tabulate!r}") from None
+                raise BTFError(
+                    f"--tabulate: 'ubo' or a step in degrees, got {args.tabulate!r}"
+                ) from None
         btf = tabulate(btf, grid, grid)
     write_container(_with_suffix(args.output), btf)
     return 0

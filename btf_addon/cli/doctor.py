@@ -22,16 +22,25 @@ def _probe_in_subprocess(name: str) -> dict:
     package = __package__.rsplit(".", 1)[0]
     code = f"from {package}.cli.probes import run_probe; run_probe({name!r})"
     try:
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                              timeout=PROBE_TIMEOUT_S, env=env, check=False)  # fmt: skip
+        proc = subprocess.run(
+            [sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            timeout=PROBE_TIMEOUT_S,
+            env=env,
+            check=False,
+        )
     except subprocess.TimeoutExpired:
         return {"ok": False, "error": f"probe did not finish within {PROBE_TIMEOUT_S} s"}
     except OSError as exc:
         return {"ok": False, "error": f"could not start a probe process ({exc})"}
     marker = proc.stdout.rfind("@@PROBE@@")
     if marker < 0:
-        reason = (f"killed by signal {-proc.returncode}" if proc.returncode < 0
-                  else f"exit code {proc.returncode}")  # fmt: skip
+        reason = (
+            f"killed by signal {-proc.returncode}"
+            if proc.returncode < 0
+            else f"exit code {proc.returncode}"
+        )
         tail = (proc.stderr.strip().splitlines() or [""])[-1]
         return {"ok": False, "error": f"probe process failed ({reason}) {tail}".strip()}
     return json.loads(proc.stdout[marker + len("@@PROBE@@") :].splitlines()[0])

@@ -18,8 +18,12 @@ def add_parser(sub) -> None:
     p.add_argument("map", type=Path, help="equirectangular .exr (Blender's orientation)")
     p.add_argument("--lights", type=int, default=256, help="number of virtual lights N")
     p.add_argument("--seed", type=int, default=0, help="seed of the Sobol digital shift")
-    p.add_argument("--rotation", type=float, default=0.0,
-                   help="Z rotation in degrees, as a Mapping node's Z rotation in the World")
+    p.add_argument(
+        "--rotation",
+        type=float,
+        default=0.0,
+        help="Z rotation in degrees, as a Mapping node's Z rotation in the World",
+    )
     p.add_argument("--strength", type=float, default=1.0, help="Background strength")
     p.add_argument("-o", "--output", required=True, type=Path)
     p.set_defaults(func=cmd_envmap)
@@ -29,8 +33,9 @@ def cmd_envmap(args) -> int:
     if args.lights < 1:
         raise BTFError(f"--lights must be at least 1, got {args.lights}")
     try:
-        env = Environment(read_exr(args.map), strength=args.strength,
-                          rotation_z_rad=np.radians(args.rotation))  # fmt: skip
+        env = Environment(
+            read_exr(args.map), strength=args.strength, rotation_z_rad=np.radians(args.rotation)
+        )
     except ValueError as exc:
         raise BTFError(f"{args.map}: {exc}") from None
     lights = env.virtual_lights(args.lights, seed=args.seed)
@@ -39,10 +44,13 @@ def cmd_envmap(args) -> int:
     fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".npz", dir=out.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, direction=lights.direction.astype(np.float32),
-                     radiance=lights.radiance.astype(np.float32),
-                     pdf=lights.pdf.astype(np.float32),
-                     nonfinite_pixels=np.int64(env.nonfinite_count))  # fmt: skip
+            np.savez(
+                fh,
+                direction=lights.direction.astype(np.float32),
+                radiance=lights.radiance.astype(np.float32),
+                pdf=lights.pdf.astype(np.float32),
+                nonfinite_pixels=np.int64(env.nonfinite_count),
+            )
         os.replace(tmp, out)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -12,8 +12,9 @@ from ..core.errors import BTFError
 def build_parser() -> argparse.ArgumentParser:
     from . import btf_commands, doctor, envmap_command
 
-    parser = argparse.ArgumentParser(prog="python -m btf_addon",
-                                     description="BTF Materials command-line tools")  # fmt: skip
+    parser = argparse.ArgumentParser(
+        prog="python -m btf_addon", description="BTF Materials command-line tools"
+    )
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress to stderr")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("doctor", help="report what this machine offers the add-on (JSON)")
@@ -29,8 +30,10 @@ def main(argv: list[str] | None = None) -> int:
     if extra and not getattr(args, "accepts_params", False):
         parser.error(f"unrecognized arguments: {' '.join(extra)}")
     args.extra = extra
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")  # fmt: skip
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
     try:
         return args.func(args)
     except BTFError as exc:

@@ -16,8 +16,11 @@ def probe_blender() -> dict:
         raise RuntimeError("the bpy module is not installed")
     import bpy
 
-    return {"version": bpy.app.version_string, "background": bool(bpy.app.background),
-            "python": platform.python_version()}  # fmt: skip
+    return {
+        "version": bpy.app.version_string,
+        "background": bool(bpy.app.background),
+        "python": platform.python_version(),
+    }
 
 
 def probe_opencl() -> dict:
@@ -75,23 +78,36 @@ def _dist_version(name: str) -> str | None:
 
 
 PROBES = {
-    "blender": (probe_blender,
-                "Install Blender as a Python module: pip install bpy==5.0.1 (Python 3.11), "
-                "or run inside Blender 4.2+."),
-    "opencl": (probe_opencl,
-               "Install a GPU vendor's OpenCL driver, or the CPU driver from PyPI: "
-               "pip install pocl-binary-distribution; final renders need OpenCL."),
-    "opengl": (probe_opengl,
-               "Install Mesa's EGL and DRI drivers (Debian: apt-get install libegl1 libegl-mesa0 "
-               "libgl1-mesa-dri) for the headless GLSL renderer."),
-    "hidraw": (probe_hidraw,
-               "Install hidapi (pip install hidapi) on Linux for Wiimote support; the add-on works "
-               "without a controller."),
-    "openxr": (probe_openxr,
-               "Optional: install an OpenXR runtime and pip install pyopenxr to drive headsets "
-               "outside Blender's own VR session."),
-    "openexr": (probe_openexr, "Install OpenEXR (pip install openexr) to read and write EXR files."),
-}  # fmt: skip
+    "blender": (
+        probe_blender,
+        "Install Blender as a Python module: pip install bpy==5.0.1 (Python 3.11), "
+        "or run inside Blender 4.2+.",
+    ),
+    "opencl": (
+        probe_opencl,
+        "Install a GPU vendor's OpenCL driver, or the CPU driver from PyPI: "
+        "pip install pocl-binary-distribution; final renders need OpenCL.",
+    ),
+    "opengl": (
+        probe_opengl,
+        "Install Mesa's EGL and DRI drivers (Debian: apt-get install libegl1 libegl-mesa0 "
+        "libgl1-mesa-dri) for the headless GLSL renderer.",
+    ),
+    "hidraw": (
+        probe_hidraw,
+        "Install hidapi (pip install hidapi) on Linux for Wiimote support; the add-on works "
+        "without a controller.",
+    ),
+    "openxr": (
+        probe_openxr,
+        "Optional: install an OpenXR runtime and pip install pyopenxr to drive headsets "
+        "outside Blender's own VR session.",
+    ),
+    "openexr": (
+        probe_openexr,
+        "Install OpenEXR (pip install openexr) to read and write EXR files.",
+    ),
+}
 
 
 def run_probe(name: str) -> None:

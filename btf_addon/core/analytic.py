@@ -28,9 +28,16 @@ def _rgb(value: Any, what: str) -> np.ndarray:
 class LambertianBTF(BTF):
     def __init__(self, albedo: Any = 0.8, tile_size_mm: tuple[float, float] = (10.0, 10.0)):
         self.albedo = _rgb(albedo, "albedo")
-        self.meta = BTFMeta(codec="lambertian", name="lambertian", width=1, height=1,
-                            n_views=0, n_lights=0, angular_grid="analytic",
-                            tile_size_mm=tuple(tile_size_mm))  # fmt: skip
+        self.meta = BTFMeta(
+            codec="lambertian",
+            name="lambertian",
+            width=1,
+            height=1,
+            n_views=0,
+            n_lights=0,
+            angular_grid="analytic",
+            tile_size_mm=tuple(tile_size_mm),
+        )
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         return self.albedo[None, :] / np.pi * q.wi[:, 2:3]
@@ -64,21 +71,34 @@ def ggx_value(wi: np.ndarray, wo: np.ndarray, alpha2: float) -> np.ndarray:
     d = alpha2 / (np.pi * (1.0 + (alpha2 - 1.0) * cos_h * cos_h) ** 2)
     g = 1.0 / (1.0 + ggx_lambda(alpha2, wi[:, 2]) + ggx_lambda(alpha2, wo[:, 2]))
     # value = D·G/(4 cos θo): cos θi cancels. At cos θo → 0, G falls like cos θo: finite.
-    return np.where((wi[:, 2] >= 0) & (wo[:, 2] >= 0),
-                    d * g / (4.0 * np.maximum(wo[:, 2], MIN_COS)), 0.0)  # fmt: skip
+    return np.where(
+        (wi[:, 2] >= 0) & (wo[:, 2] >= 0), d * g / (4.0 * np.maximum(wo[:, 2], MIN_COS)), 0.0
+    )
 
 
 class GGXBTF(BTF):
-    def __init__(self, albedo: Any = 0.8, roughness: float = 0.3,
-                 tile_size_mm: tuple[float, float] = (10.0, 10.0)):  # fmt: skip
+    def __init__(
+        self,
+        albedo: Any = 0.8,
+        roughness: float = 0.3,
+        tile_size_mm: tuple[float, float] = (10.0, 10.0),
+    ):
         if not np.isfinite(roughness) or not 0.0 <= roughness <= 1.0:
             raise ValueError(f"roughness must be in [0, 1], got {roughness!r}")
         self.albedo = _rgb(albedo, "albedo")
         self.roughness = float(roughness)
         alpha = max(self.roughness, MIN_ROUGHNESS) ** 2
         self.alpha2 = alpha * alpha
-        self.meta = BTFMeta(codec="ggx", name="ggx", width=1, height=1, n_views=0, n_lights=0,
-                            angular_grid="analytic", tile_size_mm=tuple(tile_size_mm))  # fmt: skip
+        self.meta = BTFMeta(
+            codec="ggx",
+            name="ggx",
+            width=1,
+            height=1,
+            n_views=0,
+            n_lights=0,
+            angular_grid="analytic",
+            tile_size_mm=tuple(tile_size_mm),
+        )
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         return self.albedo[None, :] * ggx_value(q.wi, q.wo, self.alpha2)[:, None]
@@ -87,8 +107,11 @@ class GGXBTF(BTF):
         return {"albedo": self.albedo.astype(np.float32)}
 
     def params(self) -> dict[str, Any]:
-        return {"albedo": self.albedo.tolist(), "roughness": self.roughness,
-                "tile_size_mm": list(self.meta.tile_size_mm)}  # fmt: skip
+        return {
+            "albedo": self.albedo.tolist(),
+            "roughness": self.roughness,
+            "tile_size_mm": list(self.meta.tile_size_mm),
+        }
 
     @classmethod
     def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> GGXBTF:

@@ -50,7 +50,9 @@ def _ints(tokens: list[str], path: Path, what: str) -> list[int]:
     try:
         return [int(t) for t in tokens]
     except ValueError:
-        raise BTFFormatError(f"{path}: {what}: expected integers, found {' '.join(tokens)!r}") from None
+        raise BTFFormatError(
+            f"{path}: {what}: expected integers, found {' '.join(tokens)!r}"
+        ) from None
 
 
 def read_material_info(directory: Path) -> MaterialInfo:
@@ -102,11 +104,22 @@ def read_material_info(directory: Path) -> MaterialInfo:
     if code_btf:
         raise UnsupportedBTFError(f"{path}: the 'codeBTF' parameterisation flag is not supported")
     return MaterialInfo(
-        name=name, n_colour=n_colour, n_views=n_views, n_lights=n_lights,
-        use_cos_beta=bool(use_cos_beta), n_beta=n_beta, n_alpha=n_alpha, n_theta=n_theta,
-        n_phi=n_phi, code_btf=bool(code_btf), rows_offset=ro, cols_offset=co, rows=pr, cols=pc,
+        name=name,
+        n_colour=n_colour,
+        n_views=n_views,
+        n_lights=n_lights,
+        use_cos_beta=bool(use_cos_beta),
+        n_beta=n_beta,
+        n_alpha=n_alpha,
+        n_theta=n_theta,
+        n_phi=n_phi,
+        code_btf=bool(code_btf),
+        rows_offset=ro,
+        cols_offset=co,
+        rows=pr,
+        cols=pc,
         hdr_value=hdr_value,
-    )  # fmt: skip
+    )
 
 
 def _float(token: str, path: Path) -> float:
@@ -130,8 +143,9 @@ def read_table(path: Path, integer: bool, cols: int | None = None) -> np.ndarray
         rows, ncols = int(tokens[0]), int(tokens[1])
         float(tokens[2]), float(tokens[3])  # min, max: unused, but part of a well-formed header
     except ValueError:
-        raise BTFFormatError(f"{path}: header must be 'rows cols min max' (two integers, "
-                             "two numbers)") from None  # fmt: skip
+        raise BTFFormatError(
+            f"{path}: header must be 'rows cols min max' (two integers, two numbers)"
+        ) from None
     if rows <= 0 or ncols <= 0:
         raise BTFFormatError(f"{path}: header declares an empty table ({rows}×{ncols})")
     if cols is not None and ncols != cols:
@@ -167,10 +181,18 @@ def check_index_range(table: np.ndarray, low: int, high: int, path: Path, target
 def files_of(directory: Path, name: str) -> list[Path]:
     """The files that make up the material (for sizes on disk)."""
     shared = [
-        "all_materialInfo.txt", "all_PDF1Dslice.txt", "all_colors.txt", "all_indexAB.txt",
-        "all_PDF2Dcolours.txt", "all_PDF2Dslices.txt", "all_PDF2Dscale.txt",
-        "all_PDF2Dindices.txt", "all_PDF3Dslices.txt", "all_PDF3Dscale.txt",
-        "all_PDF4Dslices.txt", "all_PDF4Dscale.txt",
-    ]  # fmt: skip
+        "all_materialInfo.txt",
+        "all_PDF1Dslice.txt",
+        "all_colors.txt",
+        "all_indexAB.txt",
+        "all_PDF2Dcolours.txt",
+        "all_PDF2Dslices.txt",
+        "all_PDF2Dscale.txt",
+        "all_PDF2Dindices.txt",
+        "all_PDF3Dslices.txt",
+        "all_PDF3Dscale.txt",
+        "all_PDF4Dslices.txt",
+        "all_PDF4Dscale.txt",
+    ]
     own = [f"{name}_PDF6Dslices.txt", f"{name}_PDF6Dscale.txt"]
     return [directory / f for f in shared + own]

@@ -44,6 +44,7 @@ def bytes_on_disk(path: str | Path, btf: BTF) -> int:
 
     path = Path(path)
     if path.is_dir():
-        return sum(f.stat().st_size for f in btfbase_files.files_of(path, btf.meta.name)
-                   if f.exists())  # fmt: skip
+        return sum(
+            f.stat().st_size for f in btfbase_files.files_of(path, btf.meta.name) if f.exists()
+        )
     return path.stat().st_size

@@ -34,8 +34,9 @@ def mantiuk_luminance(l_code: np.ndarray) -> np.ndarray:
 def srgb_encode(c: np.ndarray) -> np.ndarray:
     """Linear → sRGB transfer curve (as the original HDR decoder applies it)."""
     c = np.asarray(c, dtype=np.float64)
-    return np.where(c > 0.0031308, 1.055 * np.power(np.maximum(c, 0.0031308), 1.0 / 2.4) - 0.055,
-                    12.92 * c)
+    return np.where(
+        c > 0.0031308, 1.055 * np.power(np.maximum(c, 0.0031308), 1.0 / 2.4) - 0.055, 12.92 * c
+    )
 
 
 def logluv_to_rgb(l_code: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -5,7 +5,8 @@ Layout (little endian)::
     magic      8 bytes  b"BTFMAT\\r\\n"   (the CR LF catches text-mode transfers)
     version    u32      FORMAT_VERSION
     head_len   u32      length of the JSON header
-    header     JSON     {"codec", "params", "meta", "arrays": [{name, dtype, shape, offset, nbytes}]}
+    header     JSON     {"codec", "params", "meta",
+                         "arrays": [{name, dtype, shape, offset, nbytes}]}
     padding    to a 64-byte boundary, then each array's raw bytes at its offset (64-aligned)
     digest     32 bytes SHA-256 of everything before it
     end magic  8 bytes  b"BTFEND\\r\\n"
@@ -54,15 +55,25 @@ def write_container(path: str | Path, btf: BTF) -> Path:
         dtype = a.dtype.newbyteorder("<").str if a.dtype.byteorder == ">" else a.dtype.str
         if dtype not in ALLOWED_DTYPES:
             raise ValueError(f"container: array {name!r} has unsupported dtype {a.dtype}")
-        entries.append({"name": name, "dtype": dtype, "shape": list(a.shape),
-                        "offset": offset, "nbytes": a.nbytes})  # fmt: skip
+        entries.append(
+            {
+                "name": name,
+                "dtype": dtype,
+                "shape": list(a.shape),
+                "offset": offset,
+                "nbytes": a.nbytes,
+            }
+        )
         offset += a.nbytes + _pad(a.nbytes)
-    header = json.dumps({
-        "codec": btf.meta.codec,
-        "params": btf.params(),
-        "meta": btf.meta.to_json(),
-        "arrays": entries,
-    }, sort_keys=True).encode()  # fmt: skip
+    header = json.dumps(
+        {
+            "codec": btf.meta.codec,
+            "params": btf.params(),
+            "meta": btf.meta.to_json(),
+            "arrays": entries,
+        },
+        sort_keys=True,
+    ).encode()
     prefix = MAGIC + struct.pack("<II", FORMAT_VERSION, len(header)) + header
     prefix += b"\0" * _pad(len(prefix))
 
@@ -72,10 +83,13 @@ def write_container(path: str | Path, btf: BTF) -> Path:
     try:
         with os.fdopen(fd, "wb") as fh:
             for chunk in [prefix] + [
-                piece for a in arrays.values()
-                for piece in (a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes(),
-                              b"\0" * _pad(a.nbytes))
-            ]:  # fmt: skip
+                piece
+                for a in arrays.values()
+                for piece in (
+                    a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes(),
+                    b"\0" * _pad(a.nbytes),
+                )
+            ]:
                 fh.write(chunk)
                 digest.update(chunk)
             fh.write(digest.digest() + END_MAGIC)
@@ -117,9 +131,13 @@ def read_header(path: str | Path) -> tuple[dict[str, Any], bytes]:
     body = blob[data_start:body_end]
     for e in header.get("arrays", []):
         count = int(np.prod(e["shape"])) if e["shape"] else 1
-        if e["dtype"] not in ALLOWED_DTYPES or e["offset"] < 0 or (
-            e["offset"] + e["nbytes"] > len(body)
-            or count * np.dtype(e["dtype"]).itemsize != e["nbytes"]
+        if (
+            e["dtype"] not in ALLOWED_DTYPES
+            or e["offset"] < 0
+            or (
+                e["offset"] + e["nbytes"] > len(body)
+                or count * np.dtype(e["dtype"]).itemsize != e["nbytes"]
+            )
         ):
             raise BTFFormatError(f"{path}: array {e.get('name')!r} lies outside the file")
     return header, body
@@ -128,10 +146,11 @@ def read_header(path: str | Path) -> tuple[dict[str, Any], bytes]:
 def read_container(path: str | Path) -> BTF:
     header, body = read_header(path)
     arrays = {
-        e["name"]: np.frombuffer(body, dtype=e["dtype"], count=int(np.prod(e["shape"])),
-                                 offset=e["offset"]).reshape(e["shape"])
+        e["name"]: np.frombuffer(
+            body, dtype=e["dtype"], count=int(np.prod(e["shape"])), offset=e["offset"]
+        ).reshape(e["shape"])
         for e in header["arrays"]
-    }  # fmt: skip
+    }
     from .codecs import codec_class  # here: codecs imports this module for saving
 
     try:

@@ -17,9 +17,14 @@ from .model import BTF, BTFMeta, Queries, wrap_texel
 
 
 class DenseBTF(BTF):
-    def __init__(self, data: np.ndarray, view_grid: RingGrid = UBO2003,
-                 light_grid: RingGrid = UBO2003, name: str = "dense",
-                 tile_size_mm: tuple[float, float] = (10.0, 10.0)):  # fmt: skip
+    def __init__(
+        self,
+        data: np.ndarray,
+        view_grid: RingGrid = UBO2003,
+        light_grid: RingGrid = UBO2003,
+        name: str = "dense",
+        tile_size_mm: tuple[float, float] = (10.0, 10.0),
+    ):
         data = np.asarray(data, dtype=np.float32)
         expected = (view_grid.size, light_grid.size)
         if data.ndim != 5 or data.shape[:2] != expected or data.shape[4] != 3:
@@ -32,11 +37,15 @@ class DenseBTF(BTF):
         self.view_grid = view_grid
         self.light_grid = light_grid
         self.meta = BTFMeta(
-            codec="dense", name=name, width=data.shape[3], height=data.shape[2],
-            n_views=view_grid.size, n_lights=light_grid.size,
+            codec="dense",
+            name=name,
+            width=data.shape[3],
+            height=data.shape[2],
+            n_views=view_grid.size,
+            n_lights=light_grid.size,
             angular_grid=f"rings view {view_grid.size} x light {light_grid.size}",
             tile_size_mm=tuple(tile_size_mm),
-        )  # fmt: skip
+        )
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         x, y = wrap_texel(q.uv, self.meta.width, self.meta.height)
@@ -54,8 +63,9 @@ class DenseBTF(BTF):
                 out += (vw[:, a] * lw[:, b])[:, None] * self.data[vi[:, a], li[:, b], y, x]
         # Past the last measured light ring: fade with the cosine that the values contain.
         t_max = self.light_grid.theta_max_deg
-        fade = np.where(q.theta_i > t_max,
-                        np.cos(np.radians(q.theta_i)) / np.cos(np.radians(t_max)), 1.0)  # fmt: skip
+        fade = np.where(
+            q.theta_i > t_max, np.cos(np.radians(q.theta_i)) / np.cos(np.radians(t_max)), 1.0
+        )
         return out * fade[:, None]
 
     def tables(self) -> dict[str, np.ndarray]:
@@ -76,15 +86,21 @@ class DenseBTF(BTF):
         return cls(tables["data"], vg, lg, params["name"], tuple(params["tile_size_mm"]))
 
 
-def tabulate(btf: BTF, view_grid: RingGrid = UBO2003, light_grid: RingGrid = UBO2003,
-             width: int | None = None, height: int | None = None) -> DenseBTF:  # fmt: skip
+def tabulate(
+    btf: BTF,
+    view_grid: RingGrid = UBO2003,
+    light_grid: RingGrid = UBO2003,
+    width: int | None = None,
+    height: int | None = None,
+) -> DenseBTF:
     """Sample any BTF at the grid directions and texel centres → a DenseBTF."""
     width = width or btf.meta.width
     height = height or btf.meta.height
     v_dirs = view_grid.directions()
     l_dirs = light_grid.directions()
-    ys, xs = np.meshgrid((np.arange(height) + 0.5) / height, (np.arange(width) + 0.5) / width,
-                         indexing="ij")  # fmt: skip
+    ys, xs = np.meshgrid(
+        (np.arange(height) + 0.5) / height, (np.arange(width) + 0.5) / width, indexing="ij"
+    )
     uv = np.column_stack([xs.ravel(), ys.ravel()])
     data = np.empty((len(v_dirs), len(l_dirs), height, width, 3), dtype=np.float32)
     n_tex = len(uv)
@@ -92,5 +108,10 @@ def tabulate(btf: BTF, view_grid: RingGrid = UBO2003, light_grid: RingGrid = UBO
         wi = np.repeat(l_dirs, n_tex, axis=0)
         values = btf.evaluate(np.tile(uv, (len(l_dirs), 1)), wi, np.broadcast_to(wo, wi.shape))
         data[v] = values.reshape(len(l_dirs), height, width, 3)
-    return DenseBTF(data, view_grid, light_grid, name=f"{btf.meta.name} (tabulated)",
-                    tile_size_mm=btf.meta.tile_size_mm)  # fmt: skip
+    return DenseBTF(
+        data,
+        view_grid,
+        light_grid,
+        name=f"{btf.meta.name} (tabulated)",
+        tile_size_mm=btf.meta.tile_size_mm,
+    )

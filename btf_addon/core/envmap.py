@@ -116,7 +116,9 @@ class Environment:
     def directions_from_image_coords(self, s: np.ndarray, t: np.ndarray) -> np.ndarray:
         theta = np.pi * t
         phi = np.pi - 2 * np.pi * s
-        m = np.column_stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
+        m = np.column_stack(
+            [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)]
+        )
         return m @ self._rot(-self.rotation_z_rad).T
 
     def _pixel(self, s: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -154,8 +156,11 @@ class Environment:
         t = (row + dt) / self.height
         pdf_image = self.row_pdf[row] * self.col_pdf[row, col] * self.width * self.height
         sin_t = np.maximum(np.sin(np.pi * t), MIN_SIN_THETA)
-        return (self.directions_from_image_coords(s, t), self.radiance[row, col],
-                pdf_image / (2 * np.pi * np.pi * sin_t))  # fmt: skip
+        return (
+            self.directions_from_image_coords(s, t),
+            self.radiance[row, col],
+            pdf_image / (2 * np.pi * np.pi * sin_t),
+        )
 
     def invert(self, world_dirs: np.ndarray) -> np.ndarray:
         """The (N, 2) uniform numbers that ``sample`` maps to these directions."""

@@ -45,7 +45,9 @@ class RingGrid:
 
     def angles_deg(self) -> tuple[np.ndarray, np.ndarray]:
         """(size,) θ and φ of every sample, ring by ring."""
-        theta = np.concatenate([np.full(n, t) for t, n in zip(self.theta_deg, self.counts, strict=True)])
+        theta = np.concatenate(
+            [np.full(n, t) for t, n in zip(self.theta_deg, self.counts, strict=True)]
+        )
         phi = np.concatenate([np.arange(n) * (360.0 / n) for n in self.counts])
         return theta, phi
 
@@ -86,5 +88,7 @@ def uniform_ring_grid(step_deg: float, theta_max_deg: float = 75.0) -> RingGrid:
     """Rings every ``step_deg`` up to ``theta_max_deg``; azimuth spacing ≈ the polar spacing
     on the sphere (n_r = round(360·sin θ_r / step)), one sample at the pole."""
     rings = np.arange(0.0, theta_max_deg + 1e-9, step_deg)
-    counts = [1 if t == 0 else max(3, round(360.0 * np.sin(np.radians(t)) / step_deg)) for t in rings]
+    counts = [
+        1 if t == 0 else max(3, round(360.0 * np.sin(np.radians(t)) / step_deg)) for t in rings
+    ]
     return RingGrid(tuple(float(t) for t in rings), tuple(int(c) for c in counts))

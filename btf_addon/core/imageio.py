@@ -47,7 +47,9 @@ def read_exr(path: str | Path) -> np.ndarray:
     try:
         import OpenEXR
     except ImportError:
-        raise BTFFormatError("reading EXR needs the OpenEXR package (pip install openexr)") from None
+        raise BTFFormatError(
+            "reading EXR needs the OpenEXR package (pip install openexr)"
+        ) from None
     path = Path(path)
     if not path.is_file():
         raise BTFFormatError(f"{path}: no such file")
@@ -74,12 +76,19 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     raw = b"".join(b"\0" + rgb8[y].tobytes() for y in range(h))
 
     def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(
-            ">I", zlib.crc32(kind + data) & 0xFFFFFFFF
+        return (
+            struct.pack(">I", len(data))
+            + kind
+            + data
+            + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
         )
 
-    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))  # fmt: skip
+    png = (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(raw, 6))
+        + chunk(b"IEND", b"")
+    )
     return _atomic_write(Path(path), lambda p: p.write_bytes(png))
 
 

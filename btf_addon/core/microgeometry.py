@@ -46,8 +46,14 @@ def _bilinear(field: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 class MicrogeometryBTF(BTF):
-    def __init__(self, height: np.ndarray, albedo: np.ndarray, texels: int, name: str,
-                 tile_size_mm: tuple[float, float] = (10.0, 10.0)):  # fmt: skip
+    def __init__(
+        self,
+        height: np.ndarray,
+        albedo: np.ndarray,
+        texels: int,
+        name: str,
+        tile_size_mm: tuple[float, float] = (10.0, 10.0),
+    ):
         # Stored as float32, the container's precision, so a saved preset evaluates identically.
         height = np.asarray(height, dtype=np.float32).astype(np.float64)
         albedo = np.asarray(albedo, dtype=np.float32).astype(np.float64)
@@ -63,9 +69,16 @@ class MicrogeometryBTF(BTF):
         n = np.stack([-dx, -dy, np.ones_like(height)], axis=-1)
         self.normals = n / np.linalg.norm(n, axis=-1, keepdims=True)
         self.horizon = self._horizon_map()
-        self.meta = BTFMeta(codec="microgeometry", name=name, width=texels, height=texels,
-                            n_views=0, n_lights=0, angular_grid="procedural (ray cast)",
-                            tile_size_mm=tuple(tile_size_mm))  # fmt: skip
+        self.meta = BTFMeta(
+            codec="microgeometry",
+            name=name,
+            width=texels,
+            height=texels,
+            n_views=0,
+            n_lights=0,
+            angular_grid="procedural (ray cast)",
+            tile_size_mm=tuple(tile_size_mm),
+        )
 
     def _horizon_map(self) -> np.ndarray:
         """(F, F, N_AZIMUTH) tangent of the highest occluder elevation per azimuth.
@@ -83,8 +96,9 @@ class MicrogeometryBTF(BTF):
                 if distance == 0:
                     continue
                 occluder = np.roll(self.height, (-oy, -ox), axis=(0, 1))
-                np.maximum(horizon[..., k], (occluder - self.height) / distance,
-                           out=horizon[..., k])  # fmt: skip
+                np.maximum(
+                    horizon[..., k], (occluder - self.height) / distance, out=horizon[..., k]
+                )
         return horizon
 
     def _march(self, px: np.ndarray, py: np.ndarray, wo: np.ndarray):
@@ -161,8 +175,9 @@ class MicrogeometryBTF(BTF):
         w = az - np.floor(az)
         xi = np.round(x).astype(np.int64) % self.fine
         yi = np.round(y).astype(np.int64) % self.fine
-        horizon = (self.horizon[yi, xi, k0] * (1 - w)
-                   + self.horizon[yi, xi, (k0 + 1) % N_AZIMUTH] * w)  # fmt: skip
+        horizon = (
+            self.horizon[yi, xi, k0] * (1 - w) + self.horizon[yi, xi, (k0 + 1) % N_AZIMUTH] * w
+        )
         visible = np.clip((light_tan - horizon) / PENUMBRA_TAN + 0.5, 0.0, 1.0)
         return albedo / np.pi * (cos * visible)[:, None]
 
@@ -170,18 +185,32 @@ class MicrogeometryBTF(BTF):
         return {"height": self.height.astype(np.float32), "albedo": self.albedo.astype(np.float32)}
 
     def params(self) -> dict[str, Any]:
-        return {"texels": self.meta.width, "name": self.meta.name,
-                "tile_size_mm": list(self.meta.tile_size_mm)}  # fmt: skip
+        return {
+            "texels": self.meta.width,
+            "name": self.meta.name,
+            "tile_size_mm": list(self.meta.tile_size_mm),
+        }
 
     @classmethod
     def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> MicrogeometryBTF:
-        return cls(tables["height"], tables["albedo"], params["texels"], params["name"],
-                   tuple(params["tile_size_mm"]))  # fmt: skip
+        return cls(
+            tables["height"],
+            tables["albedo"],
+            params["texels"],
+            params["name"],
+            tuple(params["tile_size_mm"]),
+        )
 
 
-def woven(texels: int = 16, threads: int = 4, fine_per_texel: int = 8,
-          warp_rgb=(0.75, 0.18, 0.12), weft_rgb=(0.85, 0.8, 0.65), relief: float = 0.04,
-          tile_size_mm: float = 4.0) -> MicrogeometryBTF:  # fmt: skip
+def woven(
+    texels: int = 16,
+    threads: int = 4,
+    fine_per_texel: int = 8,
+    warp_rgb=(0.75, 0.18, 0.12),
+    weft_rgb=(0.85, 0.8, 0.65),
+    relief: float = 0.04,
+    tile_size_mm: float = 4.0,
+) -> MicrogeometryBTF:
     """Plain weave: warp threads along v and weft along u pass over and under each other."""
     f = texels * fine_per_texel
     c = (np.arange(f) + 0.5) / f
@@ -201,9 +230,14 @@ def woven(texels: int = 16, threads: int = 4, fine_per_texel: int = 8,
     return MicrogeometryBTF(height, albedo, texels, "woven", (tile_size_mm, tile_size_mm))
 
 
-def leather(texels: int = 16, fine_per_texel: int = 8, seed: int = 7,
-            base_rgb=(0.36, 0.2, 0.11), relief: float = 0.03,
-            tile_size_mm: float = 6.0) -> MicrogeometryBTF:  # fmt: skip
+def leather(
+    texels: int = 16,
+    fine_per_texel: int = 8,
+    seed: int = 7,
+    base_rgb=(0.36, 0.2, 0.11),
+    relief: float = 0.03,
+    tile_size_mm: float = 6.0,
+) -> MicrogeometryBTF:
     """Bumpy leather: periodic Gaussian bumps of random size (seeded), dark creases."""
     rng = np.random.default_rng(seed)
     f = texels * fine_per_texel

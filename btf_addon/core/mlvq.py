@@ -35,10 +35,20 @@ LDR_VALUE_SCALE = 1.0 / (255.0 * np.pi)
 HDR_VALUE_SCALE = 1.0 / np.pi
 
 TABLE_NAMES = (
-    "pdf1", "ab_colors", "index_ab", "pdf2_colours", "pdf2_slices", "pdf2_scale",
-    "pdf2_indices", "pdf3_slices", "pdf3_scale", "pdf4_slices", "pdf4_scale",
-    "pdf6_slices", "pdf6_scale",
-)  # fmt: skip
+    "pdf1",
+    "ab_colors",
+    "index_ab",
+    "pdf2_colours",
+    "pdf2_slices",
+    "pdf2_scale",
+    "pdf2_indices",
+    "pdf3_slices",
+    "pdf3_scale",
+    "pdf4_slices",
+    "pdf4_scale",
+    "pdf6_slices",
+    "pdf6_scale",
+)
 
 
 @dataclass(frozen=True)
@@ -80,12 +90,19 @@ class MLVQBTF(BTF):
         height, width = self.t["pdf6_slices"].shape
         self._beta_angles = params.beta_angles_deg()
         self.meta = BTFMeta(
-            codec="mlvq", name=params.name, width=width, height=height,
-            n_views=params.n_views, n_lights=params.n_lights,
-            angular_grid=(f"MLVQ beta {params.n_beta} x alpha {params.n_alpha} x "
-                          f"theta_v {params.n_theta} x phi_v {params.n_phi}"),
-            hdr=params.hdr, value_scale=HDR_VALUE_SCALE if params.hdr else LDR_VALUE_SCALE,
-        )  # fmt: skip
+            codec="mlvq",
+            name=params.name,
+            width=width,
+            height=height,
+            n_views=params.n_views,
+            n_lights=params.n_lights,
+            angular_grid=(
+                f"MLVQ beta {params.n_beta} x alpha {params.n_alpha} x "
+                f"theta_v {params.n_theta} x phi_v {params.n_phi}"
+            ),
+            hdr=params.hdr,
+            value_scale=HDR_VALUE_SCALE if params.hdr else LDR_VALUE_SCALE,
+        )
 
     # --- loading ---------------------------------------------------------------------------
     @classmethod
@@ -110,11 +127,18 @@ class MLVQBTF(BTF):
             "pdf6_scale": files.read_table(d / f"{info.name}_PDF6Dscale.txt", False),
         }
         params = MLVQParams(
-            n_beta=nb, n_alpha=na, n_theta=nt, n_phi=nf, use_cos_beta=info.use_cos_beta,
-            rows_offset=info.rows_offset, cols_offset=info.cols_offset,
-            hdr_value=info.hdr_value if info.hdr else 1.0, n_views=info.n_views,
-            n_lights=info.n_lights, name=info.name,
-        )  # fmt: skip
+            n_beta=nb,
+            n_alpha=na,
+            n_theta=nt,
+            n_phi=nf,
+            use_cos_beta=info.use_cos_beta,
+            rows_offset=info.rows_offset,
+            cols_offset=info.cols_offset,
+            hdr_value=info.hdr_value if info.hdr else 1.0,
+            n_views=info.n_views,
+            n_lights=info.n_lights,
+            name=info.name,
+        )
         return cls(params, tables, source=str(directory))
 
     def tables(self) -> dict[str, np.ndarray]:
@@ -144,8 +168,9 @@ class MLVQBTF(BTF):
         beta, alpha = _beta_alpha_deg(theta_i, light_phi)
 
         ib, wb = self._beta_index(np.clip(beta, -90.0, 90.0))
-        ia, wa = _uniform_index(np.clip(alpha, -90.0, 90.0) + 90.0, 180.0 / (p.n_alpha - 1),
-                                p.n_alpha - 2)  # fmt: skip
+        ia, wa = _uniform_index(
+            np.clip(alpha, -90.0, 90.0) + 90.0, 180.0 / (p.n_alpha - 1), p.n_alpha - 2
+        )
         it, wt = _uniform_index(np.clip(theta_v, 0.0, 90.0), 90.0 / (p.n_theta - 1), p.n_theta - 2)
         ip, wp = _uniform_index(np.clip(view_phi, 0.0, 360.0), 360.0 / p.n_phi, p.n_phi - 1)
 
@@ -170,8 +195,9 @@ class MLVQBTF(BTF):
     def _beta_index(self, beta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = self.p.n_beta
         if self.p.use_cos_beta:
-            i = np.clip(((np.sin(np.radians(beta)) + 1.0) / 2.0 * (n - 1)).astype(np.int64),
-                        0, n - 2)  # fmt: skip
+            i = np.clip(
+                ((np.sin(np.radians(beta)) + 1.0) / 2.0 * (n - 1)).astype(np.int64), 0, n - 2
+            )
             a = self._beta_angles
             return i, (beta - a[i]) / (a[i + 1] - a[i])
         return _uniform_index(beta + 90.0, 180.0 / (n - 1), n - 2)
@@ -244,7 +270,9 @@ def validate_tables(p: MLVQParams, t: dict[str, np.ndarray], source: str) -> Non
     def need(name: str, cols: int | None, integer: bool) -> np.ndarray:
         a = t[name]
         if a.ndim != 2 or a.shape[0] == 0 or (cols is not None and a.shape[1] != cols):
-            raise BTFFormatError(f"{source}: table {name} has shape {a.shape}, expected (n, {cols})")
+            raise BTFFormatError(
+                f"{source}: table {name} has shape {a.shape}, expected (n, {cols})"
+            )
         if integer != np.issubdtype(a.dtype, np.integer):
             raise BTFFormatError(f"{source}: table {name} has dtype {a.dtype}")
         if not integer and not np.all(np.isfinite(a)):
@@ -264,8 +292,12 @@ def validate_tables(p: MLVQParams, t: dict[str, np.ndarray], source: str) -> Non
     p4sc = need("pdf4_scale", p.n_phi, False)
     p6 = need("pdf6_slices", None, True)
     p6sc = need("pdf6_scale", None, False)
-    pairs = ((p2s, p2sc, "pdf2_slices/pdf2_scale"), (p3, p3sc, "pdf3_slices/pdf3_scale"),
-             (p4, p4sc, "pdf4_slices/pdf4_scale"), (p6, p6sc, "pdf6_slices/pdf6_scale"))  # fmt: skip
+    pairs = (
+        (p2s, p2sc, "pdf2_slices/pdf2_scale"),
+        (p3, p3sc, "pdf3_slices/pdf3_scale"),
+        (p4, p4sc, "pdf4_slices/pdf4_scale"),
+        (p6, p6sc, "pdf6_slices/pdf6_scale"),
+    )
     for a, b, what in pairs:
         if a.shape != b.shape:
             raise BTFFormatError(f"{source}: {what} shapes differ: {a.shape} vs {b.shape}")

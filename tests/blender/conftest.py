@@ -2,7 +2,8 @@
 
 The session builds the zip with Blender's own builder, installs it into an isolated user folder
 (``BLENDER_USER_RESOURCES``, set here before bpy is imported) through
-``bpy.ops.extensions.package_install_files`` and enables it as ``bl_ext.user_default.btf_materials``.
+``bpy.ops.extensions.package_install_files`` and enables it as
+``bl_ext.user_default.btf_materials``.
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ USER_RESOURCES = tempfile.mkdtemp(prefix="btf-blender-user-")
 os.environ["BLENDER_USER_RESOURCES"] = USER_RESOURCES
 
 
-
 def pytest_collection_modifyitems(items):
     for item in items:
         if "tests/blender/" in str(item.fspath):
@@ -33,10 +33,15 @@ def pytest_collection_modifyitems(items):
 @pytest.fixture(scope="session")
 def extension_zip(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("dist")
-    proc = subprocess.run([sys.executable, str(ROOT / "tools" / "build_extension.py"),
-                           "--output-dir", str(out)], capture_output=True, text=True,
-                          check=False)  # fmt: skip
-    assert proc.returncode == 0, f"build failed (run `make wheels` first?)\n{proc.stdout}\n{proc.stderr}"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "build_extension.py"), "--output-dir", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 0, (
+        f"build failed (run `make wheels` first?)\n{proc.stdout}\n{proc.stderr}"
+    )
     zips = sorted(out.glob("btf_materials-*-linux_x64.zip"))
     assert zips, proc.stdout
     return zips[0]

@@ -14,8 +14,19 @@ def test_zip_holds_the_extension_and_nothing_else(extension_zip):
     assert "btf_addon/core/mlvq.py" in names
     assert any(n.startswith("wheels/pyopencl-") and "manylinux" in n for n in names)
     assert not any("win_amd64" in n or "macosx" in n for n in names)  # split per platform
-    banned = ("tests/", "docs/", ".venv/", "tools/", "benchmarks/", ".git", "__pycache__",
-              "Makefile", "pyproject.toml", "requirements-dev.txt", ".ci/")  # fmt: skip
+    banned = (
+        "tests/",
+        "docs/",
+        ".venv/",
+        "tools/",
+        "benchmarks/",
+        ".git",
+        "__pycache__",
+        "Makefile",
+        "pyproject.toml",
+        "requirements-dev.txt",
+        ".ci/",
+    )
     assert [n for n in names if n.startswith(banned) or "/__pycache__/" in n] == []
 
 
@@ -32,8 +43,11 @@ def test_register_unregister_register_leaves_nothing_stale(bpy_module, installed
     names = ("BTF_PT_material", "BTF_OT_check_system")
 
     def registered_classes():
-        layer = [m for name, m in sys.modules.items()
-                 if name.startswith(EXTENSION_MODULE + ".btf_addon.blender.")]  # fmt: skip
+        layer = [
+            m
+            for name, m in sys.modules.items()
+            if name.startswith(EXTENSION_MODULE + ".btf_addon.blender.")
+        ]
         return [c for m in layer for c in getattr(m, "classes", ())]
 
     classes = registered_classes()

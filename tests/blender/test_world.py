@@ -47,8 +47,9 @@ def test_plain_world_colour_is_a_constant_environment(bpy_module, fresh_scene):
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1.0)
     env, messages = extension_submodule("btf_addon.blender.world").environment_from_world(world)
     assert messages == []
-    np.testing.assert_allclose(env.lookup(np.array([[0, 0, 1.0], [1, 0, 0]])),
-                               [[0.2, 0.3, 0.4]] * 2, rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        env.lookup(np.array([[0, 0, 1.0], [1, 0, 0]])), [[0.2, 0.3, 0.4]] * 2, rtol=1e-6
+    )
 
 
 def test_unsupported_world_gives_a_message_and_a_constant(bpy_module, fresh_scene):

@@ -15,8 +15,14 @@ from btf_addon.core.imageio import read_exr, write_exr
 
 
 def run_cli(*args, check=True, env=None):
-    proc = subprocess.run([sys.executable, "-m", "btf_addon", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, check=False, env=env)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "btf_addon", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
+        env=env,
+    )
     if check:
         assert proc.returncode == 0, proc.stderr
     return proc
@@ -33,14 +39,29 @@ def test_info_reports_the_raw_size_and_ratio():
 
 
 def test_eval_matches_the_library_and_raw_units(tmp_path, rng):
-    q = np.column_stack([rng.random(500), rng.random(500), rng.random(500) * 90,
-                         rng.random(500) * 360, rng.random(500) * 90,
-                         rng.random(500) * 360]).astype(np.float32)  # fmt: skip
+    q = np.column_stack(
+        [
+            rng.random(500),
+            rng.random(500),
+            rng.random(500) * 90,
+            rng.random(500) * 360,
+            rng.random(500) * 90,
+            rng.random(500) * 360,
+        ]
+    ).astype(np.float32)
     np.save(tmp_path / "q.npy", q)
     material = shared_material("wallpaper")
     run_cli("eval", material, "--queries", tmp_path / "q.npy", "--out", tmp_path / "v.npy")
-    run_cli("eval", material, "--queries", tmp_path / "q.npy", "--out", tmp_path / "r.npy",
-            "--units", "raw")
+    run_cli(
+        "eval",
+        material,
+        "--queries",
+        tmp_path / "q.npy",
+        "--out",
+        tmp_path / "r.npy",
+        "--units",
+        "raw",
+    )
     values, raw = np.load(tmp_path / "v.npy"), np.load(tmp_path / "r.npy")
     assert values.shape == (500, 3) and values.dtype == np.float32
     btf = load_btf(material)
@@ -55,8 +76,9 @@ def test_eval_rejects_bad_queries(tmp_path, bad):
         np.save(q, np.zeros((4, 5), np.float32))
     elif bad == "not_npy":
         q.write_text("1 2 3 4 5 6")
-    proc = run_cli("eval", shared_material("alu"), "--queries", q, "--out", tmp_path / "o.npy",
-                   check=False)  # fmt: skip
+    proc = run_cli(
+        "eval", shared_material("alu"), "--queries", q, "--out", tmp_path / "o.npy", check=False
+    )
     assert proc.returncode == 2
     assert proc.stderr.startswith("error: ") and "Traceback" not in proc.stderr
     assert not (tmp_path / "o.npy").exists()
@@ -64,16 +86,18 @@ def test_eval_rejects_bad_queries(tmp_path, bad):
 
 def test_swatch_writes_exr_and_png(tmp_path):
     material = shared_material("alu")
-    run_cli("swatch", material, "--light", 30, 0, "--view", 0, 0, "--size", 32, "-o",
-            tmp_path / "s.exr")  # fmt: skip
+    run_cli(
+        "swatch", material, "--light", 30, 0, "--view", 0, 0, "--size", 32, "-o", tmp_path / "s.exr"
+    )
     image = read_exr(tmp_path / "s.exr")
     assert image.shape == (32, 32, 3) and image.min() >= 0 and image.max() > 0
     btf = load_btf(material)
     # Pixel (row 0, col 0) is the top-left: u = 1/64, v = 1 − 1/64.
     want = btf.evaluate_angles([[1 / 64, 1 - 1 / 64, 30, 0, 0, 0]])[0]
     np.testing.assert_allclose(image[0, 0], want, rtol=1e-6)
-    run_cli("swatch", material, "--light", 30, 0, "--view", 0, 0, "--size", 16, "-o",
-            tmp_path / "s.png")  # fmt: skip
+    run_cli(
+        "swatch", material, "--light", 30, 0, "--view", 0, 0, "--size", 16, "-o", tmp_path / "s.png"
+    )
     assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -85,8 +109,10 @@ def test_synth_and_convert_round_trip(tmp_path, rng):
     assert load_btf(tmp_path / "l.btfm").meta.codec == "dense"
     run_cli("convert", shared_material("alu"), tmp_path / "alu.btfm")
     q = rng.random((200, 6)) * [1, 1, 90, 360, 90, 360]
-    np.testing.assert_array_equal(load_btf(tmp_path / "alu.btfm").evaluate_angles(q),
-                                  load_btf(shared_material("alu")).evaluate_angles(q))  # fmt: skip
+    np.testing.assert_array_equal(
+        load_btf(tmp_path / "alu.btfm").evaluate_angles(q),
+        load_btf(shared_material("alu")).evaluate_angles(q),
+    )
 
 
 def test_synth_rejects_unknown_parameters(tmp_path):
@@ -110,8 +136,18 @@ def test_corrupt_container_gives_a_clear_error(tmp_path):
 
 def test_envmap_writes_lights(tmp_path):
     out = tmp_path / "lights.npz"
-    run_cli("envmap", studiolights_dir() / "forest.exr", "--lights", 64, "--seed", 2,
-            "--rotation", 30, "-o", out)  # fmt: skip
+    run_cli(
+        "envmap",
+        studiolights_dir() / "forest.exr",
+        "--lights",
+        64,
+        "--seed",
+        2,
+        "--rotation",
+        30,
+        "-o",
+        out,
+    )
     data = np.load(out)
     assert data["direction"].shape == (64, 3) and data["radiance"].shape == (64, 3)
     assert data["pdf"].shape == (64,) and np.all(data["pdf"] > 0)
@@ -120,9 +156,13 @@ def test_envmap_writes_lights(tmp_path):
 
 @pytest.mark.parametrize("case", ["zero", "nan", "huge", "1x1", "2x1", "odd"])
 def test_envmap_hard_maps_through_the_cli(tmp_path, case):
-    maps = {"zero": np.zeros((8, 16, 3)), "huge": np.full((8, 16, 3), 1e6),
-            "1x1": np.ones((1, 1, 3)), "2x1": np.ones((2, 1, 3)),
-            "odd": np.random.default_rng(1).random((5, 11, 3))}  # fmt: skip
+    maps = {
+        "zero": np.zeros((8, 16, 3)),
+        "huge": np.full((8, 16, 3), 1e6),
+        "1x1": np.ones((1, 1, 3)),
+        "2x1": np.ones((2, 1, 3)),
+        "odd": np.random.default_rng(1).random((5, 11, 3)),
+    }
     img = maps.get(case, np.ones((8, 16, 3)))
     if case == "nan":
         img = img.copy()

@@ -12,8 +12,15 @@ from helpers import ROOT
 
 def doctor(env_overrides: dict) -> dict:
     env = dict(os.environ, **env_overrides)
-    proc = subprocess.run([sys.executable, "-m", "btf_addon", "doctor"], cwd=ROOT, env=env,
-                          capture_output=True, text=True, check=False, timeout=600)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "btf_addon", "doctor"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
 
@@ -42,8 +49,12 @@ def test_doctor_with_opencl_hidden(tmp_path):
 
 def test_doctor_with_no_display_libraries(tmp_path):
     """A broken EGL (no vendor) is reported, not fatal."""
-    report = doctor({"__EGL_VENDOR_LIBRARY_FILENAMES": str(tmp_path / "none.json"),
-                     "EGL_PLATFORM": "surfaceless"})  # fmt: skip
+    report = doctor(
+        {
+            "__EGL_VENDOR_LIBRARY_FILENAMES": str(tmp_path / "none.json"),
+            "EGL_PLATFORM": "surfaceless",
+        }
+    )
     assert "opengl" in report
     if not report["opengl"]["ok"]:
         assert "how_to_fix" in report["opengl"]

@@ -20,7 +20,9 @@ def _btfs():
     return {
         "lambertian": lambda: LambertianBTF((0.8, 0.5, 0.2)),
         "ggx": lambda: GGXBTF(0.7, 0.45),
-        "dense": lambda: tabulate(LambertianBTF(0.3), uniform_ring_grid(30.0), uniform_ring_grid(30.0)),
+        "dense": lambda: tabulate(
+            LambertianBTF(0.3), uniform_ring_grid(30.0), uniform_ring_grid(30.0)
+        ),
         "leather": lambda: leather(texels=4, fine_per_texel=4),
         "mlvq": lambda: MLVQBTF.from_directory(shared_material("alu")),
     }

@@ -57,12 +57,15 @@ def test_lambertian_interpolation_error_is_small(rng):
     assert _rel_rmse(approx, exact) < 0.01
 
 
-@pytest.mark.parametrize(("roughness", "grid", "bound"), [
-    (0.6, UBO2003, 0.10),                  # measured 0.084
-    (0.6, uniform_ring_grid(5.0), 0.02),   # measured 0.0135
-    (0.3, UBO2003, 0.70),                  # measured 0.61: a 5° lobe on a 15° grid
-    (0.3, uniform_ring_grid(5.0), 0.25),   # measured 0.21
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("roughness", "grid", "bound"),
+    [
+        (0.6, UBO2003, 0.10),  # measured 0.084
+        (0.6, uniform_ring_grid(5.0), 0.02),  # measured 0.0135
+        (0.3, UBO2003, 0.70),  # measured 0.61: a 5° lobe on a 15° grid
+        (0.3, uniform_ring_grid(5.0), 0.25),  # measured 0.21
+    ],
+)
 def test_ggx_interpolation_error_at_off_grid_directions(rng, roughness, grid, bound):
     """Tabulated GGX vs its exact value at random off-grid directions (θ ≤ 75°). The bounds are
     the measured errors plus ~20%: they catch a broken interpolation (which gives ≥ 100%), and
@@ -78,8 +81,9 @@ def test_ggx_interpolation_error_at_off_grid_directions(rng, roughness, grid, bo
 def test_dense_light_fades_to_zero_at_the_horizon():
     dense = tabulate(LambertianBTF(0.5))
     thetas = np.array([74.0, 75.0, 80.0, 89.0, 89.999, 90.0])
-    q = np.column_stack([np.full(6, 0.5), np.full(6, 0.5), thetas, np.zeros(6), np.zeros(6),
-                         np.zeros(6)])  # fmt: skip
+    q = np.column_stack(
+        [np.full(6, 0.5), np.full(6, 0.5), thetas, np.zeros(6), np.zeros(6), np.zeros(6)]
+    )
     v = dense.evaluate_angles(q)[:, 0]
     assert np.all(np.diff(v) <= 1e-9) and v[-1] == pytest.approx(0.0, abs=1e-6)
     # Continuous at the last ring (75°): the fade starts at exactly 1.

@@ -68,13 +68,25 @@ def test_sample_pdf_and_inverse_round_trip(rng):
 def test_orientation_matches_blenders_equirectangular_mapping():
     """A map that is bright only in the pixel Cycles reads for a known direction."""
     h, w = 64, 128
-    for direction, rotation in (((1, 0, 0), 0.0), ((0, -1, 0), 0.0), ((0.6, 0.0, 0.8), 0.0),
-                                ((0, 1, 0), np.pi / 2)):  # fmt: skip
+    for direction, rotation in (
+        ((1, 0, 0), 0.0),
+        ((0, -1, 0), 0.0),
+        ((0.6, 0.0, 0.8), 0.0),
+        ((0, 1, 0), np.pi / 2),
+    ):
         d = np.asarray(direction, float) / np.linalg.norm(direction)
         # Cycles: u = (atan2(dy, dx) − π)/(−2π), v = (acos(dz) − π)/(−π) of the mapped vector
         # (direction_to_equirectangular's default range (−2π, π, −π, π)); v = 1 is the top.
-        m = np.array([[np.cos(rotation), -np.sin(rotation), 0], [np.sin(rotation), np.cos(rotation), 0],
-                      [0, 0, 1]]) @ d  # fmt: skip
+        m = (
+            np.array(
+                [
+                    [np.cos(rotation), -np.sin(rotation), 0],
+                    [np.sin(rotation), np.cos(rotation), 0],
+                    [0, 0, 1],
+                ]
+            )
+            @ d
+        )
         u = (np.arctan2(m[1], m[0]) - np.pi) / (-2 * np.pi)
         v = (np.arccos(m[2]) - np.pi) / (-np.pi)
         row, col = int((1 - v) * h), int(u * w) % w  # file rows run top to bottom
@@ -106,8 +118,9 @@ def test_every_prefix_is_stratified():
         k = 1 << m
         prefix = pts[:k]
         for a in range(m + 1):  # boxes of 2^a × 2^(m−a)
-            cells = (np.floor(prefix[:, 0] * (1 << a)) * (1 << (m - a))
-                     + np.floor(prefix[:, 1] * (1 << (m - a))))  # fmt: skip
+            cells = np.floor(prefix[:, 0] * (1 << a)) * (1 << (m - a)) + np.floor(
+                prefix[:, 1] * (1 << (m - a))
+            )
             assert len(np.unique(cells)) == k
 
 
@@ -144,8 +157,9 @@ def test_hard_maps_give_finite_bounded_lights(rng, name, caplog):
     if name == "nan_inf":
         assert env.nonfinite_count == 3 and "3 NaN/Inf pixels" in caplog.text
     if name in ("huge", "1x1"):  # constant maps: π·L on every normal, also from the lights
-        np.testing.assert_allclose(ref, np.broadcast_to(np.pi * img.reshape(-1, 3)[0], ref.shape),
-                                   rtol=1e-3)
+        np.testing.assert_allclose(
+            ref, np.broadcast_to(np.pi * img.reshape(-1, 3)[0], ref.shape), rtol=1e-3
+        )
         # 64 Sobol lights leave ~4% quadrature noise on a cosine lobe; 1024 leave < 1%.
         np.testing.assert_allclose(env.virtual_lights(1024).irradiance(normals), ref, rtol=0.01)
     # Bounded weights: no light carries more than the whole map's power share it can represent.
@@ -157,8 +171,13 @@ def test_rotation_turns_the_lighting(rng):
     img = synthetic_map(rng)
     base = Environment(img)
     turned = Environment(img, rotation_z_rad=np.pi / 3)
-    rz = np.array([[np.cos(-np.pi / 3), -np.sin(-np.pi / 3), 0],
-                   [np.sin(-np.pi / 3), np.cos(-np.pi / 3), 0], [0, 0, 1]])  # fmt: skip
+    rz = np.array(
+        [
+            [np.cos(-np.pi / 3), -np.sin(-np.pi / 3), 0],
+            [np.sin(-np.pi / 3), np.cos(-np.pi / 3), 0],
+            [0, 0, 1],
+        ]
+    )
     d = rng.normal(size=(100, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     # The world sees the map turned by −γ: what base shows at d, turned shows at R(−γ)·d.

@@ -46,15 +46,32 @@ def btf(request):
 def test_invalid_inputs_give_zero_without_warnings(btf):
     nan, inf = np.nan, np.inf
     uv = np.array([[0.5, 0.5]] * 6 + [[nan, 0.2], [inf, 0.1]])
-    wi = np.array([[nan, 0, 1], [inf, 0, 1], [0, 0, 0], [0, 0, 1], [0, 0, -1], [1e-300, 0, 0],
-                   [0, 0, 1], [0, 0, 1]])  # fmt: skip
-    wo = np.array([[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, -inf, 1], [0, 0, 1], [0, 0, 1],
-                   [0, 0, 1], [0, 0, 1]])  # fmt: skip
+    wi = np.array(
+        [
+            [nan, 0, 1],
+            [inf, 0, 1],
+            [0, 0, 0],
+            [0, 0, 1],
+            [0, 0, -1],
+            [1e-300, 0, 0],
+            [0, 0, 1],
+            [0, 0, 1],
+        ]
+    )
+    wo = np.array(
+        [[0, 0, 1], [0, 0, 1], [0, 0, 1], [0, -inf, 1], [0, 0, 1], [0, 0, 1], [0, 0, 1], [0, 0, 1]]
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         v = btf.evaluate(uv, wi, wo)
-        q = btf.evaluate_angles([[0.5, 0.5, nan, 0, 0, 0], [0.5, 0.5, 10, inf, 0, 0],
-                                 [0.5, 0.5, 91, 0, 0, 0], [0.5, 0.5, 0, 0, 120, 0]])  # fmt: skip
+        q = btf.evaluate_angles(
+            [
+                [0.5, 0.5, nan, 0, 0, 0],
+                [0.5, 0.5, 10, inf, 0, 0],
+                [0.5, 0.5, 91, 0, 0, 0],
+                [0.5, 0.5, 0, 0, 120, 0],
+            ]
+        )
     assert np.all(v[:5] == 0) and np.all(v[6:] == 0)
     assert np.all(q == 0)
     assert np.all(np.isfinite(v[5])) and v[5].min() >= 0  # tiny but valid: light at the horizon
@@ -82,8 +99,16 @@ def test_poles_are_azimuth_independent(btf):
     """At θ = 0 every azimuth is the same direction: the value must not depend on φ (BTFbase's
     own parameterisation is the exception for the view pole, see docs/conventions.md)."""
     phis = np.linspace(0, 360, 13)
-    q = np.column_stack([np.full(13, 0.4), np.full(13, 0.4), np.zeros(13), phis,
-                         np.full(13, 35.0), np.full(13, 80.0)])  # fmt: skip
+    q = np.column_stack(
+        [
+            np.full(13, 0.4),
+            np.full(13, 0.4),
+            np.zeros(13),
+            phis,
+            np.full(13, 35.0),
+            np.full(13, 80.0),
+        ]
+    )
     v = btf.evaluate_angles(q)
     np.testing.assert_allclose(v, np.broadcast_to(v[0], v.shape), rtol=1e-4, atol=1e-7)
 

@@ -7,8 +7,15 @@ import sys
 
 from helpers import ROOT
 
-PURE_PACKAGES = ["btf_addon", "btf_addon.core", "btf_addon.cl", "btf_addon.gl",
-                 "btf_addon.render", "btf_addon.controllers", "btf_addon.cli.main"]  # fmt: skip
+PURE_PACKAGES = [
+    "btf_addon",
+    "btf_addon.core",
+    "btf_addon.cl",
+    "btf_addon.gl",
+    "btf_addon.render",
+    "btf_addon.controllers",
+    "btf_addon.cli.main",
+]
 
 
 def test_pure_layers_import_without_bpy_or_gpu_libraries():
@@ -16,15 +23,19 @@ def test_pure_layers_import_without_bpy_or_gpu_libraries():
 
     import btf_addon.core
 
-    core_modules = [f"btf_addon.core.{m.name}" for m in pkgutil.iter_modules(btf_addon.core.__path__)]
+    core_modules = [
+        f"btf_addon.core.{m.name}" for m in pkgutil.iter_modules(btf_addon.core.__path__)
+    ]
     code = (
         "import importlib, sys\n"
         f"for name in {PURE_PACKAGES + core_modules!r}: importlib.import_module(name)\n"
-        "bad = [m for m in ('bpy', 'pyopencl', 'moderngl', 'OpenEXR', 'hidraw') if m in sys.modules]\n"
+        "gpu = ('bpy', 'pyopencl', 'moderngl', 'OpenEXR', 'hidraw')\n"
+        "bad = [m for m in gpu if m in sys.modules]\n"
         "print('LEAKED', bad) if bad else print('CLEAN')\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                         check=False)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=False
+    )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "CLEAN", out.stdout
     assert len(core_modules) >= 10  # the walk really found the core's modules
@@ -40,8 +51,13 @@ def test_only_the_blender_layer_imports_bpy_at_module_level():
         if path.relative_to(ROOT / "btf_addon").parts[0] == "blender":
             continue
         for node in ast.parse(path.read_text()).body:  # module level only
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                     [node.module or ""] if isinstance(node, ast.ImportFrom) else [])  # fmt: skip
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
             if any(n.split(".")[0] in ("bpy", "pyopencl", "moderngl") for n in names):
                 offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}")
     assert offenders == []

@@ -13,8 +13,16 @@ from btf_addon.core.mlvq import LDR_VALUE_SCALE, MLVQBTF
 
 
 def random_queries(rng, n):
-    return np.column_stack([rng.random(n), rng.random(n), rng.random(n) * 90, rng.random(n) * 360,
-                            rng.random(n) * 90, rng.random(n) * 360])  # fmt: skip
+    return np.column_stack(
+        [
+            rng.random(n),
+            rng.random(n),
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+        ]
+    )
 
 
 def test_decoder_matches_independent_scalar_decoder(material_dir, rng):
@@ -22,9 +30,18 @@ def test_decoder_matches_independent_scalar_decoder(material_dir, rng):
     ref = ScalarMLVQ(material_dir)
     q = random_queries(rng, 400)
     # Grid-aligned and wrap-around cases the random draw would rarely hit.
-    q = np.vstack([q, [[0.0, 0.0, 0, 0, 0, 0], [0.999999, 0.999999, 90, 359.99, 90, 359.99],
-                       [0.5, 0.5, 45, 360, 15, 337.5], [0.25, 0.75, 90, 90, 0, 0],
-                       [0.1, 0.9, 75, 180, 75, 22.5]]])  # fmt: skip
+    q = np.vstack(
+        [
+            q,
+            [
+                [0.0, 0.0, 0, 0, 0, 0],
+                [0.999999, 0.999999, 90, 359.99, 90, 359.99],
+                [0.5, 0.5, 45, 360, 15, 337.5],
+                [0.25, 0.75, 90, 90, 0, 0],
+                [0.1, 0.9, 75, 180, 75, 22.5],
+            ],
+        ]
+    )
     got = btf.evaluate_angles(q).astype(np.float64) / LDR_VALUE_SCALE
     want = np.array([ref.decode(*row) for row in q])
     # float32 output storage: relative 1e-6 of values up to ~255, plus float64 noise.
@@ -124,7 +141,7 @@ def test_wrong_column_count_is_rejected(alu_copy):
 
 
 def test_not_a_material_directory(tmp_path):
-    with pytest.raises(BTFFormatError, match="all_materialInfo.txt is missing"):
+    with pytest.raises(BTFFormatError, match=r"all_materialInfo\.txt is missing"):
         MLVQBTF.from_directory(tmp_path)
 
 
