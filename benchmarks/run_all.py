@@ -1,0 +1,17 @@
+"""Run every benchmark and print its table (the numbers quoted in docs/accuracy.md)."""
+
+from __future__ import annotations
+
+import platform
+
+import bench_decode
+import bench_envmap
+import bench_interpolation
+
+if __name__ == "__main__":
+    print(
+        f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}"
+    )
+    for module in (bench_decode, bench_interpolation, bench_envmap):
+        print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")
+        print(module.main())
