@@ -40,7 +40,7 @@ def main() -> str:
         load_s, btf = timed(MLVQBTF.from_directory, path)
         t_vec, _ = timed(btf.evaluate_angles, q, repeat=2)
         ref = ScalarMLVQ(path)
-        t_scalar, _ = timed(lambda: [ref.decode(*row) for row in q[:N_SCALAR]])
+        t_scalar, _ = timed(lambda r=ref: [r.decode(*row) for row in q[:N_SCALAR]])
         t_lambert, _ = timed(LambertianBTF(0.5).evaluate_angles, q, repeat=2)
         rows.append(
             [

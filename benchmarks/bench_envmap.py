@@ -50,7 +50,7 @@ def main() -> str:
         uni = [rel_error(uniform_lights(env, n).irradiance(nrm), ref) for n in COUNTS]
         rows.append(
             [path.stem, round(t_build * 1000, 1), round(t_lights * 1000, 2)]
-            + [f"{e:.3f} ({u / max(e, 1e-12):.1f}×)" for e, u in zip(errs, uni)]
+            + [f"{e:.3f} ({u / max(e, 1e-12):.1f}×)" for e, u in zip(errs, uni, strict=True)]
         )
     return table(
         ["map", "build ms", "256 lights ms"] + [f"N={n} err (uniform ÷ ours)" for n in COUNTS], rows

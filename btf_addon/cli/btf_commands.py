@@ -33,7 +33,18 @@ def add_parsers(sub) -> None:
         help="(N, 6) float32 .npy: u, v, theta_i, phi_i, theta_v, phi_v (degrees)",
     )
     p.add_argument("--out", required=True, type=Path, help="(N, 3) float32 .npy output")
-    p.add_argument("--backend", choices=["numpy"], default="numpy")
+    p.add_argument(
+        "--backend",
+        choices=["numpy", "opencl"],
+        default="numpy",
+        help="numpy: the reference; opencl: the device decode kernels of final renders",
+    )
+    p.add_argument(
+        "--device",
+        type=int,
+        default=None,
+        help="OpenCL device index as listed by `doctor` (default: best GPU, else CPU)",
+    )
     p.add_argument(
         "--units",
         choices=["value", "raw"],
@@ -129,7 +140,16 @@ def load_queries(path: Path) -> np.ndarray:
 
 def cmd_eval(args) -> int:
     btf = load_btf(args.path)
-    values = btf.evaluate_angles(load_queries(args.queries))
+    queries = load_queries(args.queries)
+    if args.backend == "opencl":
+        from ..cl.context import OpenCLUnavailableError, create_context
+        from ..cl.evaluate import DeviceBTF
+
+        try:
+            btf = DeviceBTF(btf, create_context(args.device))
+        except (OpenCLUnavailableError, RuntimeError) as exc:
+            raise BTFError(f"OpenCL back end unavailable: {exc}") from None
+    values = btf.evaluate_angles(queries)
     if args.units == "raw":
         values = (values.astype(np.float64) / btf.meta.value_scale).astype(np.float32)
     _save_npy_atomic(args.out, values.astype(np.float32))

@@ -182,3 +182,44 @@ def test_envmap_rejects_a_non_exr(tmp_path):
     proc = run_cli("envmap", tmp_path / "m.exr", "-o", tmp_path / "l.npz", check=False)
     assert proc.returncode == 2 and "not a readable OpenEXR" in proc.stderr
     assert not (tmp_path / "l.npz").exists()
+
+
+def test_eval_opencl_backend_matches_numpy(tmp_path, rng):
+    q = (rng.random((3000, 6)) * [1, 1, 90, 360, 90, 360]).astype(np.float32)
+    np.save(tmp_path / "q.npy", q)
+    material = shared_material("alu")
+    run_cli(
+        "eval",
+        material,
+        "--queries",
+        tmp_path / "q.npy",
+        "--out",
+        tmp_path / "cl.npy",
+        "--backend",
+        "opencl",
+    )
+    run_cli("eval", material, "--queries", tmp_path / "q.npy", "--out", tmp_path / "np.npy")
+    got, want = np.load(tmp_path / "cl.npy"), np.load(tmp_path / "np.npy")
+    np.testing.assert_allclose(got, want, rtol=2e-3, atol=2e-4 * float(want.max()))
+
+
+def test_eval_opencl_without_opencl_is_a_clear_error(tmp_path):
+    import os
+
+    np.save(tmp_path / "q.npy", np.zeros((4, 6), np.float32))
+    env = dict(os.environ, OCL_ICD_VENDORS=str(tmp_path / "none"), OCL_ICD_FILENAMES="")
+    proc = run_cli(
+        "eval",
+        shared_material("alu"),
+        "--queries",
+        tmp_path / "q.npy",
+        "--out",
+        tmp_path / "o.npy",
+        "--backend",
+        "opencl",
+        check=False,
+        env=env,
+    )
+    assert proc.returncode == 2
+    assert "OpenCL back end unavailable" in proc.stderr and "pocl" in proc.stderr
+    assert "Traceback" not in proc.stderr and not (tmp_path / "o.npy").exists()

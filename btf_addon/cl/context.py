@@ -1,0 +1,55 @@
+"""An OpenCL context on the chosen device."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .devices import best_device_index, list_devices
+
+
+class OpenCLUnavailableError(RuntimeError):
+    """No usable OpenCL device: the message says why and what to install."""
+
+
+@dataclass
+class CLContext:
+    context: object
+    queue: object
+    device: object
+
+    @property
+    def device_name(self) -> str:
+        return self.device.name.strip()
+
+
+def create_context(device_index: int | None = None) -> CLContext:
+    """Device ``device_index`` of ``list_devices()``, or the best one (GPU, else CPU)."""
+    try:
+        infos = list_devices()
+    except RuntimeError as exc:
+        raise OpenCLUnavailableError(
+            f"{exc}. Install a GPU's OpenCL driver or the CPU driver: "
+            "pip install pocl-binary-distribution"
+        ) from None
+    if not infos:
+        raise OpenCLUnavailableError("OpenCL is installed but no device is available")
+    index = best_device_index(infos) if device_index is None else device_index
+    if not 0 <= index < len(infos):
+        raise OpenCLUnavailableError(
+            f"no OpenCL device {index}; there are {len(infos)} (0–{len(infos) - 1})"
+        )
+    import pyopencl as cl
+
+    devices = [d for p in cl.get_platforms() for d in _safe_devices(p)]
+    device = devices[index]
+    context = cl.Context([device])
+    return CLContext(context, cl.CommandQueue(context), device)
+
+
+def _safe_devices(platform):
+    import pyopencl as cl
+
+    try:
+        return platform.get_devices()
+    except cl.Error:
+        return []

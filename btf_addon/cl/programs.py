@@ -1,0 +1,119 @@
+"""Build OpenCL programs from kernels/*.cl, cached in memory and on disk.
+
+Key: (platform, device, driver version, define set, hash of the .cl file and every header in
+kernels/include). The second build of the same key in a process is free; in a new process the
+device binary is loaded from the disk cache, so a render does not wait for the compiler again.
+Set BTF_CL_BUILD_LOG=1 to print compiler logs; BTF_CL_CACHE to move the disk cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+KERNELS_DIR = Path(__file__).resolve().parents[2] / "kernels"
+_memory_cache: dict[str, object] = {}
+stats = {"compiled": 0, "disk_hits": 0, "memory_hits": 0}
+
+
+def cache_dir() -> Path:
+    if env := os.environ.get("BTF_CL_CACHE"):
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "btf_materials" / "opencl"
+
+
+def expand_includes(path: Path, seen: set[Path] | None = None) -> str:
+    """The source with ``#include "x.h"`` lines replaced by kernels/include/x.h (once each).
+
+    Done here rather than with ``-I``: install paths may contain spaces or non-ASCII characters
+    that OpenCL compilers' option parsing handles differently, and the text hashed for the cache
+    is then exactly the text compiled."""
+    seen = set() if seen is None else seen
+    out = []
+    for line in path.read_text().splitlines():
+        stripped = line.strip()
+        if stripped.startswith('#include "') and stripped.endswith('"'):
+            header = KERNELS_DIR / "include" / stripped[len('#include "') : -1]
+            if header not in seen:
+                seen.add(header)
+                out.append(expand_includes(header, seen))
+            continue
+        out.append(line)
+    return "\n".join(out)
+
+
+def _source_digest(name: str) -> str:
+    h = hashlib.sha256()
+    for path in [KERNELS_DIR / name, *sorted((KERNELS_DIR / "include").glob("*.h"))]:
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def program_key(device, name: str, defines: dict[str, int | float]) -> str:
+    flags = " ".join(f"-D{k}={v}" for k, v in sorted(defines.items()))
+    ident = "|".join(
+        [device.platform.name, device.name, device.driver_version, flags, _source_digest(name)]
+    )
+    return hashlib.sha256(ident.encode()).hexdigest()[:32]
+
+
+def build_program(context, device, name: str, defines: dict[str, int | float]):
+    """The built ``cl.Program`` for kernels/<name> with ``-D`` defines on one device."""
+    import pyopencl as cl
+
+    key = program_key(device, name, defines)
+    memory_key = f"{context.int_ptr}:{key}"  # a built program belongs to its context
+    if memory_key in _memory_cache:
+        stats["memory_hits"] += 1
+        return _memory_cache[memory_key]
+    options = [f"-D{k}={v}" for k, v in sorted(defines.items())]
+    binary_path = cache_dir() / f"{key}.bin"
+    program = None
+    if binary_path.is_file():
+        try:
+            program = cl.Program(context, [device], [binary_path.read_bytes()]).build(options)
+            stats["disk_hits"] += 1
+        except cl.Error as exc:  # a stale or foreign binary: rebuild from source below
+            log.info("ignoring cached OpenCL binary %s (%s)", binary_path.name, exc)
+            program = None
+    if program is None:
+        source = expand_includes(KERNELS_DIR / name)
+        try:
+            program = cl.Program(context, source).build(options, devices=[device])
+        except cl.RuntimeError as exc:
+            raise RuntimeError(
+                f"OpenCL compile of kernels/{name} failed on {device.name}:\n{exc}"
+            ) from None
+        stats["compiled"] += 1
+        _store_binary(program, binary_path)
+    if os.environ.get("BTF_CL_BUILD_LOG"):
+        log.warning(
+            "build log %s on %s:\n%s",
+            name,
+            device.name,
+            program.get_build_info(device, cl.program_build_info.LOG),
+        )
+    _memory_cache[memory_key] = program
+    return program
+
+
+def _store_binary(program, path: Path) -> None:
+    """Write the device binary atomically; a cache that cannot be written is not an error."""
+    import pyopencl as cl
+
+    try:
+        binary = program.get_info(cl.program_info.BINARIES)[0]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(binary)
+        os.replace(tmp, path)
+    except (OSError, cl.Error) as exc:
+        log.info("OpenCL binary cache not written (%s)", exc)

@@ -1,0 +1,102 @@
+"""OpenCL BTF evaluation against the numpy reference, on every available device."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import shared_material
+
+from btf_addon.cl import programs
+from btf_addon.cl.devices import list_devices
+from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.errors import UnsupportedBTFError
+from btf_addon.core.microgeometry import woven
+from btf_addon.core.mlvq import MLVQBTF
+
+
+def _device_indices():
+    try:
+        return list(range(len(list_devices())))
+    except RuntimeError:
+        return []
+
+
+DEVICES = _device_indices()
+pytestmark = pytest.mark.opencl
+
+
+@pytest.fixture(params=DEVICES or [None], ids=lambda i: f"device{i}")
+def cl_context(request):
+    if request.param is None:
+        pytest.skip("no OpenCL device on this machine (setup installs PoCL: run `make setup`)")
+    from btf_addon.cl.context import create_context
+
+    return create_context(request.param)
+
+
+def random_queries(rng, n):
+    return np.column_stack(
+        [
+            rng.random(n),
+            rng.random(n),
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+        ]
+    )
+
+
+def _btfs():
+    return {
+        "alu": lambda: MLVQBTF.from_directory(shared_material("alu")),
+        "wallpaper": lambda: MLVQBTF.from_directory(shared_material("wallpaper")),
+        "lambertian": lambda: LambertianBTF((0.8, 0.5, 0.2)),
+        "ggx": lambda: GGXBTF((0.9, 0.7, 0.5), 0.35),
+    }
+
+
+@pytest.mark.parametrize("name", list(_btfs()))
+def test_device_matches_numpy_reference(cl_context, rng, name):
+    from btf_addon.cl.evaluate import DeviceBTF
+
+    btf = _btfs()[name]()
+    device = DeviceBTF(btf, cl_context)
+    q = random_queries(rng, 20_000)
+    q[:50, 2] = 90.0  # grazing light
+    q[50:100, 4] = 0.0  # view at the pole
+    q[100:110] = np.nan  # sanitised on the host: zero, never sent to the device
+    got, want = device.evaluate_angles(q), btf.evaluate_angles(q)
+    assert np.all(got[100:110] == 0)
+    # float32 device maths (sin/asin/pow in single precision) against the float64 reference:
+    # 2e-4 of the largest value absolute, 2e-3 relative.
+    np.testing.assert_allclose(got, want, rtol=2e-3, atol=2e-4 * float(want.max()))
+
+
+def test_procedural_presets_are_refused_clearly(cl_context):
+    from btf_addon.cl.evaluate import DeviceBTF
+
+    with pytest.raises(UnsupportedBTFError, match="tabulate procedural presets first"):
+        DeviceBTF(woven(texels=2, fine_per_texel=4), cl_context)
+
+
+def test_programs_are_cached_in_memory_and_on_disk(cl_context, tmp_path, monkeypatch):
+    monkeypatch.setenv("BTF_CL_CACHE", str(tmp_path))
+    monkeypatch.setattr(programs, "_memory_cache", {})
+    defines = {"MLVQ_HDR": 0, "MLVQ_COS_BETA": 1}
+    before = dict(programs.stats)
+    programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+    assert programs.stats["compiled"] == before["compiled"] + 1
+    assert len(list(tmp_path.glob("*.bin"))) == 1
+    programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+    assert programs.stats["memory_hits"] == before["memory_hits"] + 1
+    monkeypatch.setattr(programs, "_memory_cache", {})  # as a new process would start
+    programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+    assert programs.stats["disk_hits"] == before["disk_hits"] + 1
+    assert programs.stats["compiled"] == before["compiled"] + 1
+
+
+def test_includes_are_expanded_once():
+    text = programs.expand_includes(programs.KERNELS_DIR / "btf_eval.cl")
+    assert "#include" not in text
+    assert text.count("inline float3 btf_ycbcr_to_rgb") == 1
