@@ -69,7 +69,8 @@ class ScalarMLVQ:
             ab = (1 - wb) * self.ab[self.iab[c, ib]] + wb * self.ab[self.iab[c, ib + 1]]
             cb += w * ab[0]
             cr += w * ab[1]
-        assert not self.hdr, "the scalar reference covers the LDR path"
+        if self.hdr:
+            return logluv(y, cb, cr)
         rgb = [
             1.1643828 * y + 1.5960273 * cr - 222.921,
             1.1643828 * y - 0.39176172 * cb - 0.81296875 * cr + 135.576,
@@ -110,3 +111,29 @@ class ScalarMLVQ:
                 p2 = self.p3[p3, j]
                 out += wk * self.p4sc[p4, k] * wj * self.p3sc[p3, j] * self.pdf2(p2, ia, wa, ib, wb)
         return out * self.p6sc[y, x] / self.hdr_value
+
+
+def logluv(l_code: float, u: float, v: float) -> np.ndarray:
+    """Mantiuk 2006 luminance (three pieces), u'v' chromaticity scaled by 410, sRGB matrix,
+    clamp, sRGB curve — one value at a time."""
+    if l_code < 98.381:
+        y = 0.056968 * l_code
+    elif l_code < 1204.7:
+        y = 7.3014e-30 * (l_code + 884.17) ** 9.9872
+    else:
+        y = 32.994 * math.exp(0.0047811 * l_code)
+    if v > 0:
+        x = 9.0 / 4.0 * u / v * y
+        z = y * (3.0 * 410.0 / v - 5.0) - x / 3.0
+    else:
+        x = z = 0.0
+    rgb = [
+        3.2406 * x - 1.5372 * y - 0.4986 * z,
+        -0.9689 * x + 1.8758 * y + 0.0415 * z,
+        0.0557 * x - 0.2040 * y + 1.0570 * z,
+    ]
+    out = []
+    for c in rgb:
+        c = max(c, 0.0)
+        out.append(1.055 * c ** (1 / 2.4) - 0.055 if c > 0.0031308 else 12.92 * c)
+    return np.array(out)

@@ -152,3 +152,42 @@ def test_multi_material_database_is_unsupported(alu_copy):
     f.write_text("\n".join(lines) + "\n")
     with pytest.raises(UnsupportedBTFError, match="3 materials"):
         MLVQBTF.from_directory(alu_copy)
+
+
+def test_hdr_path_matches_independent_decoder(alu_copy, rng):
+    """No HDR BTFbase data ships here: re-label alu as HDR (hdrValue 2.5) so the decoder takes
+    the LogLuv path, and compare with the scalar reference's own LogLuv implementation."""
+    for name in ("all_materialInfo.txt", "alu_materialInfo.txt"):
+        f = alu_copy / name
+        f.write_text(f.read_text().replace("64 64 0.000000", "64 64 2.500000"))
+    btf = MLVQBTF.from_directory(alu_copy)
+    assert btf.meta.hdr and btf.p.hdr_value == 2.5
+    ref = ScalarMLVQ(alu_copy)
+    q = random_queries(rng, 200)
+    got = btf.evaluate_angles(q).astype(np.float64) / btf.meta.value_scale
+    want = np.array([ref.decode(*row) for row in q])
+    np.testing.assert_allclose(got, want, rtol=2e-6, atol=1e-6 * want.max())
+    assert want.max() > 0
+
+
+def test_logluv_white_point_decodes_to_grey():
+    """u', v' of the D65 white point (0.1978, 0.4683) × 410 must give R = G = B."""
+    from btf_addon.core.colour import logluv_to_rgb
+
+    rgb = logluv_to_rgb(
+        np.array([50.0, 500.0, 1500.0]), np.full(3, 0.1978 * 410), np.full(3, 0.4683 * 410)
+    )
+    np.testing.assert_allclose(rgb / rgb[:, 1:2], 1.0, atol=0.01)
+    assert np.all(np.diff(rgb[:, 1]) > 0)  # brighter codes, brighter grey
+
+
+def test_texels_without_data_decode_to_zero(alu_copy):
+    f = alu_copy / "alu_PDF6Dslices.txt"
+    lines = f.read_text().splitlines()
+    row = lines[1].split()
+    row[0] = "0"  # texel (x=0, y=0): "not compressed"
+    lines[1] = " ".join(row)
+    f.write_text("\n".join(lines) + "\n")
+    btf = MLVQBTF.from_directory(alu_copy)
+    v = btf.evaluate_angles([[0.001, 0.001, 30, 0, 20, 0], [0.02, 0.001, 30, 0, 20, 0]])
+    assert np.all(v[0] == 0) and v[1].max() > 0
