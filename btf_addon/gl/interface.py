@@ -1,0 +1,137 @@
+"""One description of a shader's interface → Blender's GPUShaderCreateInfo or GLSL 330 source.
+
+Bodies live in shaders/*.glsl without declarations (Blender's create-info rule); the interface
+here declares every resource once. For Blender, the description becomes create-info calls; for
+moderngl it becomes ``#version 330`` declarations prepended to the same bodies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+SHADERS_DIR = Path(__file__).resolve().parents[2] / "shaders"
+MAX_SAMPLERS = 16  # Metal's limit: what every back end of this add-on keeps to
+MAX_PUSH_CONSTANT_BYTES = 128
+
+_GLSL_TYPES = {
+    "FLOAT": "float",
+    "VEC2": "vec2",
+    "VEC3": "vec3",
+    "VEC4": "vec4",
+    "MAT4": "mat4",
+    "INT": "int",
+    "IVEC2": "ivec2",
+    "IVEC4": "ivec4",
+}
+_TYPE_BYTES = {
+    "FLOAT": 4,
+    "VEC2": 8,
+    "VEC3": 12,
+    "VEC4": 16,
+    "MAT4": 64,
+    "INT": 4,
+    "IVEC2": 8,
+    "IVEC4": 16,
+}
+_SAMPLERS = {"FLOAT_2D": "sampler2D", "INT_2D": "isampler2D"}
+
+
+class ShaderCompileError(RuntimeError):
+    """A shader failed to compile or link; the message holds the shader name and the log."""
+
+
+@dataclass(frozen=True)
+class ShaderInterface:
+    name: str
+    vertex_inputs: tuple[tuple[int, str, str], ...]  # (location, type, name)
+    fragment_outputs: tuple[tuple[int, str, str], ...]  # (slot, type, name)
+    samplers: tuple[tuple[int, str, str], ...]  # (slot, FLOAT_2D | INT_2D, name)
+    push_constants: tuple[tuple[str, str], ...] = ()  # (type, name)
+    varyings: tuple[tuple[str, str], ...] = ()  # (type, name), smooth
+    libraries: tuple[str, ...] = ()  # shaders/*.glsl prepended to the fragment body
+    vertex_file: str = ""
+    fragment_file: str = ""
+    defines: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if len(self.samplers) > MAX_SAMPLERS:
+            raise ValueError(f"{self.name}: {len(self.samplers)} samplers > {MAX_SAMPLERS}")
+        size = sum(_TYPE_BYTES[t] for t, _ in self.push_constants)
+        if size > MAX_PUSH_CONSTANT_BYTES:
+            raise ValueError(f"{self.name}: {size} bytes of push constants > 128")
+
+    def vertex_body(self) -> str:
+        return (SHADERS_DIR / self.vertex_file).read_text()
+
+    def fragment_body(self) -> str:
+        parts = [(SHADERS_DIR / lib).read_text() for lib in self.libraries]
+        return "\n".join([*parts, (SHADERS_DIR / self.fragment_file).read_text()])
+
+    # --- moderngl / plain OpenGL ------------------------------------------------------------
+    def glsl_330(self) -> tuple[str, str]:
+        head = "#version 330 core\n" + "".join(
+            f"#define {k} {v}\n" for k, v in self.defines.items()
+        )
+        uniforms = "".join(f"uniform {_GLSL_TYPES[t]} {n};\n" for t, n in self.push_constants)
+        uniforms += "".join(f"uniform {_SAMPLERS[t]} {n};\n" for _, t, n in self.samplers)
+        vs = head + uniforms
+        vs += "".join(
+            f"layout(location = {loc}) in {_GLSL_TYPES[t]} {n};\n"
+            for loc, t, n in self.vertex_inputs
+        )
+        vs += "".join(f"out {_GLSL_TYPES[t]} {n};\n" for t, n in self.varyings)
+        fs = head + uniforms
+        fs += "".join(f"in {_GLSL_TYPES[t]} {n};\n" for t, n in self.varyings)
+        fs += "".join(
+            f"layout(location = {slot}) out {_GLSL_TYPES[t]} {n};\n"
+            for slot, t, n in self.fragment_outputs
+        )
+        return vs + self.vertex_body(), fs + self.fragment_body()
+
+    # --- Blender's gpu module -----------------------------------------------------------------
+    def blender_create_info(self):
+        import gpu
+
+        info = gpu.types.GPUShaderCreateInfo()
+        for loc, t, n in self.vertex_inputs:
+            info.vertex_in(loc, t, n)
+        for slot, t, n in self.fragment_outputs:
+            info.fragment_out(slot, t, n)
+        for slot, t, n in self.samplers:
+            info.sampler(slot, t, n)
+        for t, n in self.push_constants:
+            info.push_constant(t, n)
+        if self.varyings:
+            stage = gpu.types.GPUStageInterfaceInfo(f"{self.name}_iface")
+            for t, n in self.varyings:
+                stage.smooth(t, n)
+            info.vertex_out(stage)
+        for k, v in self.defines.items():
+            info.define(k, v)
+        info.vertex_source(self.vertex_body())
+        info.fragment_source(self.fragment_body())
+        return info
+
+
+BTF_LIBRARIES = (
+    "btf_tables_lib.glsl",
+    "btf_colour_lib.glsl",
+    "btf_mlvq_lib.glsl",
+    "btf_eval_lib.glsl",
+)
+
+QUERY_SHADER = ShaderInterface(
+    name="btf_query",
+    vertex_inputs=((0, "VEC2", "pos"),),
+    fragment_outputs=((0, "VEC4", "frag_color"),),
+    samplers=(
+        (0, "FLOAT_2D", "btf_int_tables"),
+        (1, "FLOAT_2D", "btf_float_tables"),
+        (2, "FLOAT_2D", "query_a"),
+        (3, "FLOAT_2D", "query_b"),
+    ),
+    libraries=BTF_LIBRARIES,
+    vertex_file="query_vert.glsl",
+    fragment_file="query_frag.glsl",
+)

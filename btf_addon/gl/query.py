@@ -1,0 +1,102 @@
+"""Evaluate BTFs at query lists through the GLSL shaders on a standalone moderngl context.
+
+Each query occupies one texel of two RGBA32F query textures; a full-screen draw runs the shared
+``btf_evaluate`` GLSL function once per fragment into an RGBA32F target. The same shader bodies run
+inside Blender (btf_addon/blender/gpu_query.py); tests compare both with the numpy reference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.model import BTF, Queries
+from .interface import QUERY_SHADER, ShaderCompileError
+from .tables import pack
+
+QUERY_TILE = 1024  # queries per row of the query textures / render target
+
+
+def query_textures(q: Queries) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """Valid queries → two (h, w, 4) float32 images and the target size (w, h)."""
+    n = len(q.uv)
+    w = min(max(n, 1), QUERY_TILE)
+    h = -(-n // w) if n else 1
+    a = np.zeros((h * w, 4), dtype=np.float32)
+    b = np.zeros((h * w, 4), dtype=np.float32)
+    a[:n] = np.column_stack([q.uv, q.theta_i, q.phi_i])
+    b[:n, :2] = np.column_stack([q.theta_v, q.phi_v])
+    b[:n, 2] = 1.0  # valid marker: padding texels stay black
+    return a.reshape(h, w, 4), b.reshape(h, w, 4), (w, h)
+
+
+def create_gl_context():
+    import moderngl
+
+    try:
+        return moderngl.create_standalone_context(backend="egl")
+    except Exception as exc:  # glcontext raises plain Exceptions
+        raise RuntimeError(f"no headless OpenGL context through EGL ({exc})") from None
+
+
+def compile_program(ctx, interface=QUERY_SHADER):
+    import moderngl
+
+    vs, fs = interface.glsl_330()
+    try:
+        return ctx.program(vertex_shader=vs, fragment_shader=fs)
+    except moderngl.Error as exc:
+        raise ShaderCompileError(
+            f"GLSL shader {interface.name!r} failed to compile:\n{exc}"
+        ) from None
+
+
+class GLSLBTF(BTF):
+    """A core BTF evaluated by the GLSL shaders (moderngl, headless EGL)."""
+
+    def __init__(self, btf: BTF, ctx=None):
+        self.btf = btf
+        self.meta = btf.meta
+        packed = pack(btf)
+        self.ctx = ctx or create_gl_context()
+        self.program = compile_program(self.ctx)
+        self.int_tex = self.ctx.texture(
+            packed.ints.shape[::-1], 1, packed.ints.tobytes(), dtype="f4"
+        )
+        self.float_tex = self.ctx.texture(
+            packed.floats.shape[::-1], 1, packed.floats.tobytes(), dtype="f4"
+        )
+        quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
+        self.vbo = self.ctx.buffer(quad.tobytes())
+        self.vao = self.ctx.vertex_array(self.program, [(self.vbo, "2f", "pos")])
+        for slot, _type, name in QUERY_SHADER.samplers:
+            if name in self.program:
+                self.program[name].value = slot
+
+    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+        n = len(q.uv)
+        a, b, (w, h) = query_textures(q)
+        tex_a = self.ctx.texture((w, h), 4, a.tobytes(), dtype="f4")
+        tex_b = self.ctx.texture((w, h), 4, b.tobytes(), dtype="f4")
+        target = self.ctx.texture((w, h), 4, dtype="f4")
+        fbo = self.ctx.framebuffer(color_attachments=[target])
+        try:
+            for tex in (self.int_tex, self.float_tex, tex_a, tex_b):
+                tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            self.int_tex.use(0)
+            self.float_tex.use(1)
+            tex_a.use(2)
+            tex_b.use(3)
+            fbo.use()
+            self.ctx.viewport = (0, 0, w, h)
+            self.vao.render()
+            out = np.frombuffer(fbo.read(components=4, dtype="f4"), dtype=np.float32)
+        finally:
+            for obj in (fbo, target, tex_a, tex_b):
+                obj.release()
+        return out.reshape(h * w, 4)[:n, :3].astype(np.float64)
+
+    def tables(self):
+        return self.btf.tables()
+
+    def params(self):
+        return self.btf.params()

@@ -1,0 +1,38 @@
+/* One entry point for every codec: value (the project's convention) for a valid query. */
+
+float ggx_lambda(float alpha2, float c)
+{
+  float c2 = max(c, 1e-6);
+  c2 *= c2;
+  return 0.5 * (-1.0 + sqrt(1.0 + alpha2 * max(1.0 / c2 - 1.0, 0.0)));
+}
+
+vec3 btf_direction(float theta_deg, float phi_deg)
+{
+  float t = radians(theta_deg), p = radians(phi_deg);
+  return vec3(sin(t) * cos(p), sin(t) * sin(p), cos(t));
+}
+
+/* uv: texture coordinates; angles in degrees with theta in [0, 90]. */
+vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v)
+{
+  int codec = itab(H_CODEC);
+  if (codec == CODEC_MLVQ) {
+    return mlvq_decode(uv, theta_i, phi_i, theta_v, phi_v) * ftab(F_VALUE_SCALE);
+  }
+  vec3 albedo = vec3(ftab(F_ALBEDO), ftab(F_ALBEDO + 1), ftab(F_ALBEDO + 2));
+  vec3 wi = btf_direction(theta_i, phi_i);
+  if (codec == CODEC_LAMBERTIAN) {
+    return albedo * (max(wi.z, 0.0) / 3.14159265358979);
+  }
+  /* CODEC_GGX: D·G/(4 cos θo), as btf_addon/core/analytic.py */
+  vec3 wo = btf_direction(theta_v, phi_v);
+  float alpha2 = ftab(F_ALPHA2);
+  vec3 h = wi + wo;
+  float h_len = length(h);
+  float cos_h = h_len > 1e-12 ? h.z / h_len : 0.0;
+  float denom = 1.0 + (alpha2 - 1.0) * cos_h * cos_h;
+  float d = alpha2 / (3.14159265358979 * denom * denom);
+  float g = 1.0 / (1.0 + ggx_lambda(alpha2, wi.z) + ggx_lambda(alpha2, wo.z));
+  return albedo * (d * g / (4.0 * max(wo.z, 1e-6)));
+}

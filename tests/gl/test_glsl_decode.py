@@ -1,0 +1,111 @@
+"""The GLSL decoder (moderngl over EGL) against the numpy reference."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import shared_material
+
+from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.errors import UnsupportedBTFError
+from btf_addon.core.microgeometry import woven
+from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.gl import interface
+from btf_addon.gl.interface import ShaderCompileError, ShaderInterface
+
+
+@pytest.fixture(scope="module")
+def gl_ctx():
+    from btf_addon.gl.query import create_gl_context
+
+    try:
+        ctx = create_gl_context()
+    except RuntimeError as exc:
+        pytest.skip(f"no headless OpenGL here ({exc}); setup installs Mesa's EGL")
+    yield ctx
+    ctx.release()
+
+
+def random_queries(rng, n):
+    return np.column_stack(
+        [
+            rng.random(n),
+            rng.random(n),
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+        ]
+    )
+
+
+@pytest.mark.parametrize("name", ["alu", "wallpaper"])
+def test_glsl_decode_matches_numpy_within_one_8bit_step(gl_ctx, rng, name):
+    """10⁴ random queries: |GLSL − numpy| ≤ 1/255 of the 8-bit scale the data was measured in
+    (i.e. one raw decoder unit), the precision of the original images."""
+    from btf_addon.gl.query import GLSLBTF
+
+    btf = MLVQBTF.from_directory(shared_material(name))
+    q = random_queries(rng, 10_000)
+    q[:20] = np.nan  # invalid rows never reach the shader
+    got = GLSLBTF(btf, gl_ctx).evaluate_angles(q)
+    want = btf.evaluate_angles(q)
+    assert np.all(got[:20] == 0)
+    raw_error = np.abs(got - want) / btf.meta.value_scale
+    assert raw_error.max() <= 1.0, raw_error.max()
+    assert want.max() / btf.meta.value_scale > 100  # real, bright values were compared
+
+
+@pytest.mark.parametrize(
+    "btf", [LambertianBTF((0.8, 0.5, 0.2)), GGXBTF((0.9, 0.6, 0.3), 0.4)], ids=["lambertian", "ggx"]
+)
+def test_glsl_analytic_presets_match(gl_ctx, rng, btf):
+    from btf_addon.gl.query import GLSLBTF
+
+    q = random_queries(rng, 5_000)
+    got, want = GLSLBTF(btf, gl_ctx).evaluate_angles(q), btf.evaluate_angles(q)
+    # single-precision GPU maths: 1e-3 relative, 1e-5 of the peak absolute
+    np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
+
+
+def test_unsupported_codec_is_a_clear_error(gl_ctx):
+    from btf_addon.gl.query import GLSLBTF
+
+    with pytest.raises(UnsupportedBTFError, match="GLSL back end"):
+        GLSLBTF(woven(texels=2, fine_per_texel=4), gl_ctx)
+
+
+def test_shader_compile_error_is_readable(gl_ctx, tmp_path, monkeypatch):
+    from btf_addon.gl.query import compile_program
+
+    (tmp_path / "v.glsl").write_text("void main() { gl_Position = vec4(pos, 0.0, 1.0); }")
+    (tmp_path / "f.glsl").write_text("void main() { frag_color = vec4(undefined_name); }")
+    monkeypatch.setattr(interface, "SHADERS_DIR", tmp_path)
+    broken = ShaderInterface(
+        name="broken",
+        vertex_inputs=((0, "VEC2", "pos"),),
+        fragment_outputs=((0, "VEC4", "frag_color"),),
+        samplers=(),
+        vertex_file="v.glsl",
+        fragment_file="f.glsl",
+    )
+    with pytest.raises(ShaderCompileError, match=r"(?s)'broken' failed to compile.*undefined_name"):
+        compile_program(gl_ctx, broken)
+
+
+def test_interface_limits_are_enforced():
+    with pytest.raises(ValueError, match="samplers"):
+        ShaderInterface(
+            name="x",
+            vertex_inputs=(),
+            fragment_outputs=(),
+            samplers=tuple((i, "FLOAT_2D", f"s{i}") for i in range(17)),
+        )
+    with pytest.raises(ValueError, match="push constants"):
+        ShaderInterface(
+            name="x",
+            vertex_inputs=(),
+            fragment_outputs=(),
+            samplers=(),
+            push_constants=(("MAT4", "a"), ("MAT4", "b"), ("VEC4", "c")),
+        )
