@@ -135,3 +135,35 @@ QUERY_SHADER = ShaderInterface(
     vertex_file="query_vert.glsl",
     fragment_file="query_frag.glsl",
 )
+
+SURFACE_SHADER = ShaderInterface(
+    name="btf_surface",
+    vertex_inputs=((0, "VEC3", "pos"), (1, "VEC3", "nor"), (2, "VEC2", "uv"), (3, "VEC4", "tan")),
+    fragment_outputs=((0, "VEC4", "frag_color"),),
+    samplers=(
+        (0, "FLOAT_2D", "btf_int_tables"),
+        (1, "FLOAT_2D", "btf_float_tables"),
+        (2, "FLOAT_2D", "lights"),
+    ),
+    push_constants=(
+        ("MAT4", "clip_from_world"),
+        ("VEC4", "camera"),
+        ("VEC4", "uv_transform"),
+        ("VEC4", "light_range"),
+    ),
+    varyings=(("VEC3", "v_world"), ("VEC3", "v_normal"), ("VEC2", "v_uv"), ("VEC4", "v_tangent")),
+    libraries=BTF_LIBRARIES,
+    vertex_file="surface_vert.glsl",
+    fragment_file="surface_frag.glsl",
+)
+
+BACKGROUND_SHADER = ShaderInterface(
+    name="btf_background",
+    vertex_inputs=((0, "VEC2", "pos"),),
+    fragment_outputs=((0, "VEC4", "frag_color"),),
+    samplers=((0, "FLOAT_2D", "environment"),),
+    push_constants=(("MAT4", "world_from_clip"), ("VEC2", "viewport_size"), ("VEC2", "env_params")),
+    libraries=("env_lib.glsl",),
+    vertex_file="query_vert.glsl",
+    fragment_file="background_frag.glsl",
+)

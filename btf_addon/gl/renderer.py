@@ -1,0 +1,184 @@
+"""A standalone GLSL renderer (moderngl, offscreen) for plain-array scenes (render/scene.py).
+
+The same shaders as the viewport: a depth pre-pass, then batches of K virtual lights added into
+a float target with depth test EQUAL (only the visible surface accumulates), the World drawn
+behind. ``resolve`` divides by the number of lights accumulated so far. Used for headless
+renders (``render --engine glsl``), the stereo/XTAL work, tests and benchmarks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.envmap import VirtualLights
+from ..render.progressive import ProgressiveState
+from ..render.scene import Scene
+from .interface import BACKGROUND_SHADER, SURFACE_SHADER
+from .query import compile_program, create_gl_context
+from .tables import pack
+
+
+def _f32(m: np.ndarray) -> bytes:
+    """Column-major float32 bytes of a matrix, as GLSL's mat4 expects."""
+    return np.asarray(m, dtype=np.float32).T.tobytes()
+
+
+class GLSLRenderer:
+    def __init__(self, scene: Scene, width: int, height: int, ctx=None):
+        if width < 1 or height < 1 or max(width, height) > 16384:
+            raise ValueError(f"resolution {width}×{height} is outside 1…16384")
+        self.scene = scene
+        self.width, self.height = width, height
+        self.ctx = ctx or create_gl_context()
+        ctx = self.ctx
+        self.surface = compile_program(ctx, SURFACE_SHADER)
+        self.background = compile_program(ctx, BACKGROUND_SHADER)
+        self.color = ctx.texture((width, height), 4, dtype="f4")
+        self.depth = ctx.depth_texture((width, height))
+        self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+        self.bg_color = ctx.texture((width, height), 4, dtype="f4")
+        self.bg_fbo = ctx.framebuffer(color_attachments=[self.bg_color])
+        self._material_textures = [self._upload_tables(m.btf) for m in scene.materials]
+        self._meshes = [self._upload_mesh(m) for m in scene.meshes]
+        env = scene.environment
+        image = np.ascontiguousarray(env.radiance[..., :3], dtype=np.float32)
+        self.env_tex = ctx.texture((env.width, env.height), 3, image.tobytes(), dtype="f4")
+        self.env_tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
+        self.quad = ctx.vertex_array(self.background, [(ctx.buffer(quad.tobytes()), "2f", "pos")])
+        self.lights_tex = None
+        self.state: ProgressiveState | None = None
+
+    # --- uploads ----------------------------------------------------------------------------
+    def _upload_tables(self, btf):
+        packed = pack(btf)
+        ints = self.ctx.texture(packed.ints.shape[::-1], 1, packed.ints.tobytes(), dtype="f4")
+        floats = self.ctx.texture(packed.floats.shape[::-1], 1, packed.floats.tobytes(), dtype="f4")
+        for tex in (ints, floats):
+            tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        return ints, floats
+
+    def _upload_mesh(self, mesh):
+        m = np.asarray(mesh.world_from_object, dtype=np.float64)
+        normal_m = np.linalg.inv(m[:3, :3]).T
+        p = mesh.positions @ m[:3, :3].T + m[:3, 3]
+        n = mesh.normals @ normal_m.T
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+        t = mesh.tangents[:, :3] @ m[:3, :3].T
+        # A mirroring transform (negative determinant) flips the bitangent's handedness.
+        sign = mesh.tangents[:, 3:4] * np.sign(np.linalg.det(m[:3, :3]) or 1.0)
+        data = np.hstack([p, n, mesh.uvs, t, sign]).astype(np.float32)
+        ok = np.all(np.isfinite(data), axis=1).reshape(-1, 3).all(axis=1)
+        data = data.reshape(-1, 3, data.shape[1])[ok].reshape(-1, data.shape[1])  # drop NaN tris
+        buf = self.ctx.buffer(data.tobytes())
+        vao = self.ctx.vertex_array(self.surface, [(buf, "3f 3f 2f 4f", "pos", "nor", "uv", "tan")])
+        return vao, mesh.material
+
+    def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
+        n = len(lights.pdf)
+        texels = np.zeros((1, 2 * n, 4), dtype=np.float32)
+        texels[0, 0::2, :3] = lights.direction
+        texels[0, 1::2, :3] = lights.radiance / lights.pdf[:, None]
+        if self.lights_tex is not None:
+            self.lights_tex.release()
+        self.lights_tex = self.ctx.texture((2 * n, 1), 4, texels.tobytes(), dtype="f4")
+        self.lights_tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        self.state = ProgressiveState(total=n, per_pass=per_pass)
+
+    # --- drawing ------------------------------------------------------------------------------
+    def _camera_uniforms(self):
+        cam = self.scene.camera
+        clip_from_world = cam.projection(self.width / self.height) @ np.linalg.inv(
+            cam.world_from_camera
+        )
+        if cam.perspective:
+            camera = np.array([*cam.position, 1.0], dtype=np.float32)
+        else:
+            camera = np.array([*cam.world_from_camera[:3, 2], 0.0], dtype=np.float32)
+        return clip_from_world, camera
+
+    def restart(self) -> None:
+        """Clear the accumulation and draw the depth pre-pass and the World."""
+        ctx = self.ctx
+        clip_from_world, _ = self._camera_uniforms()
+        self.bg_fbo.use()
+        ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
+        self.background["world_from_clip"].write(_f32(np.linalg.inv(clip_from_world)))
+        self.background["viewport_size"].value = (self.width, self.height)
+        env = self.scene.environment
+        self.background["env_params"].value = (env.rotation_z_rad, 1.0)
+        self.env_tex.use(0)
+        self.background["environment"].value = 0
+        self.quad.render()
+        self.fbo.use()
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.fbo.color_mask = (False, False, False, False)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = "<"
+        self._draw_meshes(0, 0)
+        self.fbo.color_mask = (True, True, True, True)
+        if self.state is not None:
+            self.state.restart()
+
+    def _draw_meshes(self, first: int, count: int) -> None:
+        clip_from_world, camera = self._camera_uniforms()
+        self.surface["clip_from_world"].write(_f32(clip_from_world))
+        self.surface["camera"].value = tuple(camera)
+        for vao, material_index in self._meshes:
+            material = self.scene.materials[material_index]
+            ints, floats = self._material_textures[material_index]
+            ints.use(0)
+            floats.use(1)
+            if self.lights_tex is not None:
+                self.lights_tex.use(2)
+            for name, slot in (("btf_int_tables", 0), ("btf_float_tables", 1), ("lights", 2)):
+                self.surface[name].value = slot
+            m = material.uv_transform()
+            self.surface["uv_transform"].value = (m[0, 0], m[1, 0], m[0, 1], m[1, 1])
+            self.surface["light_range"].value = (first, count, 2.0**material.exposure, 0.0)
+            vao.render()
+
+    def render_pass(self) -> int:
+        """Add the next batch of lights; returns how many were added (0 once converged)."""
+        if self.state is None:
+            raise RuntimeError("set_lights first")
+        first, count = self.state.next_batch()
+        if count == 0:
+            return 0
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.enable(ctx.DEPTH_TEST | ctx.BLEND)
+        ctx.depth_func = "=="  # only the surface the pre-pass found visible
+        ctx.depth_mask = False
+        ctx.blend_func = (ctx.ONE, ctx.ONE)
+        try:
+            self._draw_meshes(first, count)
+        finally:
+            ctx.depth_mask = True
+            ctx.disable(ctx.BLEND)
+        self.state.advance(count)
+        return count
+
+    def resolve(self) -> np.ndarray:
+        """(height, width, 3) float32 linear image, row 0 at the top."""
+        accum = np.frombuffer(self.color.read(), dtype=np.float32).reshape(
+            self.height, self.width, 4
+        )
+        bg = np.frombuffer(self.bg_color.read(), dtype=np.float32).reshape(
+            self.height, self.width, 4
+        )
+        done = max(self.state.done if self.state else 0, 1)
+        covered = accum[..., 3:4] > 0
+        image = np.where(covered, accum[..., :3] / done, bg[..., :3])
+        return np.ascontiguousarray(image[::-1])  # OpenGL's row 0 is the bottom
+
+    def render(self, lights: VirtualLights, per_pass: int | None = None) -> np.ndarray:
+        self.set_lights(lights, per_pass or len(lights.pdf))
+        self.restart()
+        while self.render_pass():
+            pass
+        return self.resolve()
+
+    def release(self) -> None:
+        for obj in (self.color, self.depth, self.fbo, self.bg_color, self.bg_fbo, self.env_tex):
+            obj.release()

@@ -1,0 +1,132 @@
+"""A renderable scene as plain arrays: what the Blender layer exports and every renderer draws.
+
+Frames are named by what they map (pbrt's habit): ``world_from_object`` takes object-space
+points to world space. World space is Blender's: Z up, metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.envmap import Environment
+from ..core.model import BTF
+
+
+@dataclass
+class Material:
+    """A BTF with its placement on the surface.
+
+    uv_scale: texture repeats per UV unit; uv_rotation_rad: rotation in UV space;
+    exposure: brightness in stops (value × 2^exposure).
+    """
+
+    btf: BTF
+    uv_scale: float = 1.0
+    uv_rotation_rad: float = 0.0
+    exposure: float = 0.0
+    name: str = ""
+
+    def uv_transform(self) -> np.ndarray:
+        """(2, 2) matrix taking mesh UVs to BTF texture coordinates (rotate, then scale)."""
+        c, s = np.cos(self.uv_rotation_rad), np.sin(self.uv_rotation_rad)
+        return self.uv_scale * np.array([[c, -s], [s, c]])
+
+
+@dataclass
+class Mesh:
+    """Triangles in object space with per-corner attributes (corners = 3 × triangles).
+
+    positions: (C, 3) float32; normals: (C, 3) float32 unit; uvs: (C, 2) float32;
+    tangents: (C, 4) float32 — unit tangent along +u and the bitangent sign (±1), as MikkTSpace;
+    world_from_object: (4, 4) float64; material: index into Scene.materials.
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    uvs: np.ndarray
+    tangents: np.ndarray
+    world_from_object: np.ndarray = field(default_factory=lambda: np.eye(4))
+    material: int = 0
+    name: str = ""
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.positions) // 3
+
+
+@dataclass
+class Camera:
+    """world_from_camera: (4, 4); the camera looks along its −Z with +Y up (Blender's).
+    perspective: vertical field of view (radians); orthographic: ortho_scale is the larger side."""
+
+    world_from_camera: np.ndarray
+    perspective: bool = True
+    fov_y_rad: float = np.radians(40.0)
+    ortho_scale: float = 6.0
+    clip_start: float = 0.01
+    clip_end: float = 1000.0
+    shift: tuple[float, float] = (0.0, 0.0)
+
+    def frustum(self, aspect: float) -> tuple[float, float, float, float]:
+        """(left, right, bottom, top) at the near plane (perspective) or in camera units
+        (orthographic), with Blender's shift: 1.0 moves the frame by its larger dimension."""
+        if self.perspective:
+            top = self.clip_start * np.tan(self.fov_y_rad / 2)
+        else:
+            top = self.ortho_scale / 2 / max(aspect, 1.0)
+        right = top * aspect
+        big = 2 * max(right, top)
+        dx, dy = self.shift[0] * big, self.shift[1] * big
+        return -right + dx, right + dx, -top + dy, top + dy
+
+    def projection(self, aspect: float) -> np.ndarray:
+        """OpenGL clip_from_camera (4, 4) for width/height = ``aspect``."""
+        n, f = self.clip_start, self.clip_end
+        l_, r, b, t = self.frustum(aspect)
+        if self.perspective:
+            return np.array(
+                [
+                    [2 * n / (r - l_), 0, (r + l_) / (r - l_), 0],
+                    [0, 2 * n / (t - b), (t + b) / (t - b), 0],
+                    [0, 0, -(f + n) / (f - n), -2 * f * n / (f - n)],
+                    [0, 0, -1, 0],
+                ]
+            )
+        return np.array(
+            [
+                [2 / (r - l_), 0, 0, -(r + l_) / (r - l_)],
+                [0, 2 / (t - b), 0, -(t + b) / (t - b)],
+                [0, 0, -2 / (f - n), -(f + n) / (f - n)],
+                [0, 0, 0, 1],
+            ]
+        )
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.world_from_camera[:3, 3]
+
+
+@dataclass
+class Scene:
+    meshes: list[Mesh]
+    materials: list[Material]
+    camera: Camera
+    environment: Environment
+    messages: list[str] = field(default_factory=list)
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """world_from_camera for a camera at ``eye`` looking at ``target`` (−Z forward, +Y up)."""
+    eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross(up, back)
+    if np.linalg.norm(right) < 1e-9:  # looking straight up or down: any perpendicular will do
+        right = np.cross((0.0, 1.0, 0.0), back)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(back, right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, true_up, back, eye
+    return m

@@ -1,0 +1,47 @@
+/* Shade with a batch of virtual lights and write their sum (progressive accumulation adds the
+ * batches; the resolve divides by the number of lights so far).
+ *
+ * lights: 2 texels per light, (direction.xyz, 0) then (radiance / pdf).rgb, 0), world space.
+ * camera: xyz = camera position, w = 1 (perspective); or xyz = direction towards the camera,
+ *         w = 0 (orthographic).
+ * uv_transform: mat2 (column-major in a vec4) from mesh UVs to BTF texture coordinates.
+ * light_range: x = first light, y = how many, z = exposure multiplier. */
+
+vec3 to_tangent(vec3 d, vec3 t, vec3 b, vec3 n)
+{
+  return vec3(dot(d, t), dot(d, b), dot(d, n));
+}
+
+vec2 theta_phi_deg(vec3 d)
+{
+  float phi = degrees(atan(d.y, d.x));
+  return vec2(degrees(acos(clamp(d.z, -1.0, 1.0))), phi < 0.0 ? phi + 360.0 : phi);
+}
+
+void main()
+{
+  vec3 n = normalize(v_normal);
+  vec3 wo_world = camera.w > 0.5 ? normalize(camera.xyz - v_world) : normalize(camera.xyz);
+  float side = dot(n, wo_world) < 0.0 ? -1.0 : 1.0; /* back faces are shaded as seen */
+  n *= side;
+  vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
+  float t_len = length(t);
+  t = t_len > 1e-8 ? t / t_len : normalize(cross(abs(n.z) < 0.9 ? vec3(0, 0, 1) : vec3(1, 0, 0), n));
+  vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0) * side;
+  vec3 wo = to_tangent(wo_world, t, b, n);
+  vec2 view = theta_phi_deg(wo);
+  vec2 uv = mat2(uv_transform.xy, uv_transform.zw) * v_uv;
+  vec3 sum = vec3(0.0);
+  int first = int(light_range.x), count = int(light_range.y);
+  for (int i = first; i < first + count; i++) {
+    vec3 dir = texelFetch(lights, ivec2(2 * i, 0), 0).xyz;
+    vec3 weight = texelFetch(lights, ivec2(2 * i + 1, 0), 0).rgb;
+    vec3 wi = to_tangent(dir, t, b, n);
+    if (wi.z <= 0.0 || wo.z <= 0.0) {
+      continue;
+    }
+    vec2 light = theta_phi_deg(wi);
+    sum += btf_evaluate(uv, light.x, light.y, view.x, view.y) * weight;
+  }
+  frag_color = vec4(sum * light_range.z, 1.0);
+}

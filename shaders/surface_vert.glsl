@@ -1,0 +1,9 @@
+/* Meshes arrive in world space (the host applies world_from_object once per upload). */
+void main()
+{
+  v_world = pos;
+  v_normal = nor;
+  v_uv = uv;
+  v_tangent = tan;
+  gl_Position = clip_from_world * vec4(pos, 1.0);
+}
