@@ -42,6 +42,15 @@ float ftab(int i)
 #define H_F_PDF4_SCALE 23
 #define H_F_PDF6_SCALE 24
 #define H_F_BETA 25
+/* dense codec */
+#define H_N_LIGHTS 26
+#define H_F_DATA 27
+#define H_N_VIEW_RINGS 28
+#define H_F_VIEW_THETA 29
+#define H_VIEW_OFFSETS 30
+#define H_N_LIGHT_RINGS 31
+#define H_F_LIGHT_THETA 32
+#define H_LIGHT_OFFSETS 33
 /* Float header slots. */
 #define F_VALUE_SCALE 0
 #define F_HDR_VALUE 1
@@ -51,3 +60,4 @@ float ftab(int i)
 #define CODEC_MLVQ 1
 #define CODEC_LAMBERTIAN 2
 #define CODEC_GGX 3
+#define CODEC_DENSE 4

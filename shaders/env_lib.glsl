@@ -8,7 +8,7 @@ vec3 env_lookup(vec3 d)
   vec3 m = normalize(vec3(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
   float u = (3.14159265358979 - atan(m.y, m.x)) / 6.28318530717959;
   float v = acos(clamp(m.z, -1.0, 1.0)) / 3.14159265358979;
-  ivec2 size = textureSize(environment, 0);
-  ivec2 p = ivec2(int(fract(u) * float(size.x)) % size.x, min(int(v * float(size.y)), size.y - 1));
-  return texelFetch(environment, p, 0).rgb * env_params.y;
+  /* Bilinear, wrapping across the seam, as the Environment Texture's default (Linear). Rows
+   * were uploaded top first, so texture t = 0 is the zenith. */
+  return texture(environment, vec2(u, v)).rgb * env_params.y;
 }

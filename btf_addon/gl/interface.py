@@ -118,6 +118,7 @@ BTF_LIBRARIES = (
     "btf_tables_lib.glsl",
     "btf_colour_lib.glsl",
     "btf_mlvq_lib.glsl",
+    "btf_dense_lib.glsl",
     "btf_eval_lib.glsl",
 )
 

@@ -43,7 +43,8 @@ class GLSLRenderer:
         env = scene.environment
         image = np.ascontiguousarray(env.radiance[..., :3], dtype=np.float32)
         self.env_tex = ctx.texture((env.width, env.height), 3, image.tobytes(), dtype="f4")
-        self.env_tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.env_tex.filter = (ctx.LINEAR, ctx.LINEAR)
+        self.env_tex.repeat_x, self.env_tex.repeat_y = True, False
         quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
         self.quad = ctx.vertex_array(self.background, [(ctx.buffer(quad.tobytes()), "2f", "pos")])
         self.lights_tex = None

@@ -18,14 +18,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.analytic import GGXBTF, LambertianBTF
+from ..core.dense import DenseBTF
 from ..core.errors import UnsupportedBTFError
 from ..core.mlvq import MLVQBTF
 from ..core.model import BTF
 
 TABLE_WIDTH = 4096
-HEADER_INTS = 32
+HEADER_INTS = 40
 HEADER_FLOATS = 8
-CODEC_IDS = {"mlvq": 1, "lambertian": 2, "ggx": 3}
+CODEC_IDS = {"mlvq": 1, "lambertian": 2, "ggx": 3, "dense": 4}
 MAGIC = 0xB7F1  # header check value, exact in float32
 MAX_EXACT_INT = 1 << 24
 
@@ -57,6 +58,14 @@ INT_HEADER = [
     "f_pdf4_scale",
     "f_pdf6_scale",
     "f_beta",
+    "n_lights",
+    "f_data",
+    "n_view_rings",
+    "f_view_theta",
+    "view_offsets",
+    "n_light_rings",
+    "f_light_theta",
+    "light_offsets",
 ]
 FLOAT_HEADER = ["value_scale", "hdr_value", "albedo_r", "albedo_g", "albedo_b", "alpha2"]
 
@@ -85,6 +94,7 @@ def pack(btf: BTF) -> PackedTables:
             "first or use the numpy back end"
         )
     ih = dict.fromkeys(INT_HEADER, 0)
+    assert len(INT_HEADER) <= HEADER_INTS
     fh = dict.fromkeys(FLOAT_HEADER, 0.0)
     ih["magic"], ih["codec"] = MAGIC, CODEC_IDS[codec]
     fh["value_scale"] = btf.meta.value_scale
@@ -132,6 +142,15 @@ def pack(btf: BTF) -> PackedTables:
             ih["f_" + name] = add(t[name], integer=False)
         ih["f_beta"] = add(p.beta_angles_deg(), integer=False)
         fh["hdr_value"] = p.hdr_value
+    elif isinstance(btf, DenseBTF):
+        ih.update(width=btf.meta.width, height=btf.meta.height, n_lights=btf.light_grid.size)
+        ih["f_data"] = add(btf.data, integer=False)
+        for prefix, grid in (("view", btf.view_grid), ("light", btf.light_grid)):
+            ih[f"n_{prefix}_rings"] = len(grid.counts)
+            ih[f"f_{prefix}_theta"] = add(np.asarray(grid.theta_deg), integer=False)
+            ih[f"{prefix}_offsets"] = add(
+                np.concatenate([[0], np.cumsum(grid.counts)]), integer=True
+            )
     elif isinstance(btf, LambertianBTF | GGXBTF):
         fh["albedo_r"], fh["albedo_g"], fh["albedo_b"] = btf.albedo
         if isinstance(btf, GGXBTF):

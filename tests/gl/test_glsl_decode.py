@@ -68,6 +68,19 @@ def test_glsl_analytic_presets_match(gl_ctx, rng, btf):
     np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
 
 
+def test_glsl_dense_matches(gl_ctx, rng):
+    from btf_addon.core.dense import tabulate
+    from btf_addon.core.grid import uniform_ring_grid
+    from btf_addon.gl.query import GLSLBTF
+
+    btf = tabulate(
+        woven(texels=4, fine_per_texel=4), uniform_ring_grid(20.0), uniform_ring_grid(15.0)
+    )
+    q = random_queries(rng, 5_000)
+    got, want = GLSLBTF(btf, gl_ctx).evaluate_angles(q), btf.evaluate_angles(q)
+    np.testing.assert_allclose(got, want, rtol=1e-4, atol=1e-5 * float(want.max()))
+
+
 def test_unsupported_codec_is_a_clear_error(gl_ctx):
     from btf_addon.gl.query import GLSLBTF
 

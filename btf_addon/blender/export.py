@@ -1,0 +1,202 @@
+"""The evaluated depsgraph → a plain-array ``render.scene.Scene``.
+
+Meshes come with modifiers applied and instances expanded (``depsgraph.object_instances``),
+triangulated through loop triangles, with per-corner normals (Blender's own, so smooth/flat
+shading and custom normals are honoured), UVs and generated tangents. Materials: a material
+slot whose ``btf`` settings are enabled is drawn with that BTF; any other material with a
+Lambertian BTF of its viewport colour (Principled base colour when it is set directly).
+Every simplification or problem is recorded in ``Scene.messages`` for the UI to show.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ..core.analytic import LambertianBTF
+from ..core.codecs import load_btf
+from ..core.errors import BTFError
+from ..core.model import BTF
+from ..render.scene import Camera, Material, Mesh, Scene
+from ..render.tangents import corner_tangents
+from .world import environment_from_world
+
+log = logging.getLogger(__name__)
+
+# Loading a BTF is costly (text tables, checksums): keep them by absolute path and mtime.
+_btf_cache: dict[tuple[str, float], BTF] = {}
+
+
+def load_cached(path: str) -> BTF:
+    resolved = Path(bpy.path.abspath(path)).resolve()
+    key = (str(resolved), resolved.stat().st_mtime if resolved.exists() else -1.0)
+    if key not in _btf_cache:
+        _btf_cache[key] = load_btf(resolved)
+    return _btf_cache[key]
+
+
+def _fallback_colour(material) -> tuple[float, float, float]:
+    if material is None:
+        return (0.8, 0.8, 0.8)
+    if material.node_tree is not None:
+        for node in material.node_tree.nodes:
+            if (
+                node.bl_idname == "ShaderNodeBsdfPrincipled"
+                and not node.inputs["Base Color"].is_linked
+            ):
+                return tuple(node.inputs["Base Color"].default_value)[:3]
+    return tuple(material.diffuse_color)[:3]
+
+
+def export_material(material, messages: list[str]) -> tuple[Material, str]:
+    """→ (render material, UV map name or '' for the active render UV map)."""
+    settings = getattr(material, "btf", None) if material is not None else None
+    if settings is not None and settings.enabled:
+        if not settings.source:
+            messages.append(f"material {material.name!r}: BTF enabled but no source set")
+        else:
+            try:
+                btf = load_cached(settings.source)
+                return Material(
+                    btf, settings.uv_scale, settings.uv_rotation, settings.exposure, material.name
+                ), settings.uv_map
+            except (BTFError, OSError) as exc:
+                messages.append(f"material {material.name!r}: {exc}")
+    name = material.name if material is not None else "default"
+    return Material(LambertianBTF(_fallback_colour(material)), name=name), ""
+
+
+def export_mesh(obj, matrix_world, slot_materials, messages: list[str]) -> list[Mesh]:
+    """One Mesh per material slot in use. slot_materials[i] = (material index, UV map name)."""
+    mesh = obj.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        tris = mesh.loop_triangles
+        n_tris = len(tris)
+        if n_tris == 0:
+            return []
+        loops = np.empty(n_tris * 3, dtype=np.int64)
+        tris.foreach_get("loops", loops)
+        verts = np.empty(n_tris * 3, dtype=np.int64)
+        tris.foreach_get("vertices", verts)
+        slots = np.empty(n_tris, dtype=np.int64)
+        tris.foreach_get("material_index", slots)
+        co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", co)
+        positions = co.reshape(-1, 3)[verts]
+        corner_normals = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+        mesh.corner_normals.foreach_get("vector", corner_normals)
+        normals = corner_normals.reshape(-1, 3)[loops]
+        out = []
+        for slot in np.unique(np.clip(slots, 0, len(slot_materials) - 1)):
+            material_index, uv_name = slot_materials[slot]
+            uvs = _corner_uvs(obj, mesh, loops, uv_name, messages)
+            corners = np.repeat(np.clip(slots, 0, len(slot_materials) - 1) == slot, 3)
+            p, n, uv = positions[corners], normals[corners], uvs[corners]
+            out.append(
+                Mesh(
+                    p,
+                    n,
+                    uv,
+                    corner_tangents(p, n, uv),
+                    np.array(matrix_world, dtype=np.float64),
+                    material_index,
+                    obj.name,
+                )
+            )
+        return out
+    finally:
+        obj.to_mesh_clear()
+
+
+def _corner_uvs(obj, mesh, loops, uv_name: str, messages: list[str]) -> np.ndarray:
+    layer = mesh.uv_layers.get(uv_name) if uv_name else None
+    if layer is None:
+        layer = next((uv for uv in mesh.uv_layers if uv.active_render), None)
+        if uv_name:
+            messages.append(
+                f"object {obj.name!r}: UV map {uv_name!r} not found, using "
+                f"{layer.name if layer else 'none'}"
+            )
+    if layer is None:
+        message = (
+            f"object {obj.name!r} has no UV map: its BTF cannot be placed; add one "
+            "(UV > Smart UV Project)"
+        )
+        if message not in messages:
+            messages.append(message)
+        return np.zeros((len(loops), 2), dtype=np.float32)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    layer.data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)[loops]
+
+
+def export_camera(scene, width: int, height: int) -> Camera:
+    cam_obj = scene.camera
+    if cam_obj is None:
+        raise BTFError("the scene has no camera: add one (Add > Camera) and make it active")
+    cam = cam_obj.data
+    m = np.array(cam_obj.matrix_world, dtype=np.float64)
+    m[:3, :3] /= np.linalg.norm(m[:3, :3], axis=0)  # drop object scale: a camera has none
+    aspect = width / height
+    fit = cam.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if aspect >= 1 else "VERTICAL"
+        sensor = cam.sensor_width
+    else:
+        sensor = cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height
+    if cam.type == "ORTHO":
+        larger = (
+            cam.ortho_scale
+            if (fit == "HORIZONTAL") == (aspect >= 1)
+            else (cam.ortho_scale / aspect if aspect >= 1 else cam.ortho_scale * aspect)
+        )
+        return Camera(
+            m,
+            perspective=False,
+            ortho_scale=larger,
+            clip_start=cam.clip_start,
+            clip_end=cam.clip_end,
+            shift=(cam.shift_x, cam.shift_y),
+        )
+    half = sensor / 2 / cam.lens
+    half_h = half / aspect if fit == "HORIZONTAL" else half
+    if cam.type != "PERSP":
+        log.warning("panoramic cameras are drawn as perspective")
+    return Camera(
+        m,
+        True,
+        2 * math.atan(half_h),
+        clip_start=cam.clip_start,
+        clip_end=cam.clip_end,
+        shift=(cam.shift_x, cam.shift_y),
+    )
+
+
+def export_scene(depsgraph, width: int, height: int) -> Scene:
+    scene = depsgraph.scene
+    messages: list[str] = []
+    materials: list[Material] = []
+    material_ids: dict[str, tuple[int, str]] = {}
+    meshes: list[Mesh] = []
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+            continue
+        slot_materials = []
+        for slot in obj.material_slots or [None]:
+            material = slot.material if slot is not None else None
+            key = material.name if material is not None else ""
+            if key not in material_ids:
+                exported, uv_name = export_material(material, messages)
+                material_ids[key] = (len(materials), uv_name)
+                materials.append(exported)
+            slot_materials.append(material_ids[key])
+        meshes += export_mesh(obj, inst.matrix_world, slot_materials, messages)
+    env, env_messages = environment_from_world(scene.world)
+    messages += env_messages
+    return Scene(meshes, materials, export_camera(scene, width, height), env, messages)
