@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib
 
-MODULES = ("preferences", "properties", "operators", "ui")
+MODULES = ("preferences", "properties", "render_settings", "operators", "engine", "ui")
 
 
 def _modules():

@@ -5,6 +5,8 @@ from __future__ import annotations
 import bpy
 from bpy.types import Panel
 
+from .addon import ENGINE_ID
+
 
 class BTF_PT_material(Panel):
     bl_label = "BTF"
@@ -32,5 +34,34 @@ class BTF_PT_material(Panel):
         layout.prop(settings, "exposure")
 
 
-classes = (BTF_PT_material,)
+class BTF_PT_render_settings(Panel):
+    bl_label = "BTF"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+    @classmethod
+    def poll(cls, context) -> bool:
+        return context.engine == ENGINE_ID
+
+    def draw(self, context) -> None:
+        settings = context.scene.btf_render
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(settings, "lighting")
+        col = layout.column()
+        col.active = settings.lighting == "ENVIRONMENT"
+        col.prop(settings, "lights_total")
+        col.prop(settings, "seed")
+        layout.prop(settings, "progressive")
+        row = layout.row()
+        row.active = settings.progressive
+        row.prop(settings, "lights_per_redraw")
+        layout.label(
+            text="F12 renders direct lighting (no shadows) until the OpenCL tracer lands",
+            icon="INFO",
+        )
+
+
+classes = (BTF_PT_material, BTF_PT_render_settings)
 register, unregister = bpy.utils.register_classes_factory(classes)

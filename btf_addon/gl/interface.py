@@ -168,3 +168,13 @@ BACKGROUND_SHADER = ShaderInterface(
     vertex_file="query_vert.glsl",
     fragment_file="background_frag.glsl",
 )
+
+RESOLVE_SHADER = ShaderInterface(
+    name="btf_resolve",
+    vertex_inputs=((0, "VEC2", "pos"),),
+    fragment_outputs=((0, "VEC4", "frag_color"),),
+    samplers=((0, "FLOAT_2D", "accumulation"), (1, "FLOAT_2D", "background")),
+    push_constants=(("VEC4", "resolve_params"),),
+    vertex_file="query_vert.glsl",
+    fragment_file="resolve_frag.glsl",
+)

@@ -60,18 +60,7 @@ class GLSLRenderer:
         return ints, floats
 
     def _upload_mesh(self, mesh):
-        m = np.asarray(mesh.world_from_object, dtype=np.float64)
-        normal_m = np.linalg.inv(m[:3, :3]).T
-        p = mesh.positions @ m[:3, :3].T + m[:3, 3]
-        n = mesh.normals @ normal_m.T
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-        t = mesh.tangents[:, :3] @ m[:3, :3].T
-        # A mirroring transform (negative determinant) flips the bitangent's handedness.
-        sign = mesh.tangents[:, 3:4] * np.sign(np.linalg.det(m[:3, :3]) or 1.0)
-        data = np.hstack([p, n, mesh.uvs, t, sign]).astype(np.float32)
-        ok = np.all(np.isfinite(data), axis=1).reshape(-1, 3).all(axis=1)
-        data = data.reshape(-1, 3, data.shape[1])[ok].reshape(-1, data.shape[1])  # drop NaN tris
-        buf = self.ctx.buffer(data.tobytes())
+        buf = self.ctx.buffer(mesh.world_space_corners().tobytes())
         vao = self.ctx.vertex_array(self.surface, [(buf, "3f 3f 2f 4f", "pos", "nor", "uv", "tan")])
         return vao, mesh.material
 

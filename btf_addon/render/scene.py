@@ -55,6 +55,21 @@ class Mesh:
     def triangle_count(self) -> int:
         return len(self.positions) // 3
 
+    def world_space_corners(self) -> np.ndarray:
+        """(corners, 12) float32 rows: position, normal, uv, tangent and bitangent sign, in
+        world space, for drawing. Triangles with any non-finite value are dropped."""
+        m = np.asarray(self.world_from_object, dtype=np.float64)
+        p = self.positions @ m[:3, :3].T + m[:3, 3]
+        n = self.normals @ np.linalg.inv(m[:3, :3])  # (M^-1)^T applied to row vectors
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+        t = self.tangents[:, :3] @ m[:3, :3].T
+        # A mirroring transform (negative determinant) flips the bitangent's handedness.
+        sign = self.tangents[:, 3:4] * (np.sign(np.linalg.det(m[:3, :3])) or 1.0)
+        with np.errstate(invalid="ignore"):
+            data = np.hstack([p, n, self.uvs, t, sign]).astype(np.float32)
+        ok = np.all(np.isfinite(data), axis=1).reshape(-1, 3).all(axis=1)
+        return data.reshape(-1, 3, 12)[ok].reshape(-1, 12)
+
 
 @dataclass
 class Camera:

@@ -1,0 +1,54 @@
+"""The BTF render engine: thin methods into final_render and viewport (Cycles' habit)."""
+
+from __future__ import annotations
+
+import bpy
+
+from . import final_render, viewport
+from .addon import ENGINE_ID
+
+
+class BTFRenderEngine(bpy.types.RenderEngine):
+    bl_idname = ENGINE_ID
+    bl_label = "BTF"
+    # Material previews are drawn by this engine too, so BTF materials preview as they render.
+    bl_use_preview = True
+    # render() draws with the gpu module; this gives it a GPU context even in background mode.
+    bl_use_gpu_context = True
+    # Our materials are BTF settings, not node trees: keep Blender's own material UI.
+    bl_use_shading_nodes_custom = False
+
+    def render(self, depsgraph):
+        final_render.render(self, depsgraph)
+
+    def view_update(self, context, depsgraph):
+        viewport.view_update(self, context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        viewport.view_draw(self, context, depsgraph)
+
+    def free(self):
+        state = getattr(self, "btf_viewport", None)
+        if state is not None:
+            state.free_buffers()
+
+
+def compatible_panels():
+    """Built-in panels shown for Eevee/Workbench that make sense for this engine as well."""
+    excluded = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
+    for panel in bpy.types.Panel.__subclasses__():
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if engines is not None and "BLENDER_RENDER" in engines and panel.__name__ not in excluded:
+            yield panel
+
+
+def register() -> None:
+    bpy.utils.register_class(BTFRenderEngine)
+    for panel in compatible_panels():
+        panel.COMPAT_ENGINES.add(ENGINE_ID)
+
+
+def unregister() -> None:
+    for panel in compatible_panels():
+        panel.COMPAT_ENGINES.discard(ENGINE_ID)
+    bpy.utils.unregister_class(BTFRenderEngine)

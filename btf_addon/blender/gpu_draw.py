@@ -1,0 +1,153 @@
+"""Drawing a plain-array scene with Blender's ``gpu`` module: the viewport and F12 share it.
+
+Same shaders and the same steps as the standalone renderer (btf_addon/gl/renderer.py): a depth
+pre-pass, batches of K virtual lights added into an RGBA32F target with depth test EQUAL, the
+World drawn behind, and a resolve that divides by the lights accumulated so far. The caller
+supplies the view (clip_from_world and the camera) — the viewport's region matrices or the
+scene camera — and decides how many batches to draw per call.
+"""
+
+from __future__ import annotations
+
+import gpu
+import numpy as np
+from gpu_extras.batch import batch_for_shader
+
+from ..core.envmap import VirtualLights
+from ..gl.interface import (
+    BACKGROUND_SHADER,
+    RESOLVE_SHADER,
+    SURFACE_SHADER,
+    ShaderCompileError,
+    ShaderInterface,
+)
+from ..gl.tables import pack
+from ..render.progressive import ProgressiveState
+from ..render.scene import Scene
+
+_shader_cache: dict[str, gpu.types.GPUShader] = {}
+QUAD = [(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)]
+
+
+def shader(interface: ShaderInterface) -> gpu.types.GPUShader:
+    if interface.name not in _shader_cache:
+        try:
+            _shader_cache[interface.name] = gpu.shader.create_from_info(
+                interface.blender_create_info()
+            )
+        except Exception as exc:  # Blender raises a bare Exception; the log is on the console
+            raise ShaderCompileError(
+                f"GLSL shader {interface.name!r} failed to compile ({exc}); see the console"
+            ) from None
+    return _shader_cache[interface.name]
+
+
+def texture(array: np.ndarray, fmt: str) -> gpu.types.GPUTexture:
+    """(h, w, c) or (h, w) float array → a GPU texture (rows uploaded as given)."""
+    array = np.ascontiguousarray(array, dtype=np.float32)
+    h, w = array.shape[:2]
+    return gpu.types.GPUTexture(
+        (w, h), format=fmt, data=gpu.types.Buffer("FLOAT", array.size, array.ravel())
+    )
+
+
+def _matrix(m: np.ndarray):
+    import mathutils
+
+    return mathutils.Matrix(np.asarray(m, dtype=np.float64).tolist())
+
+
+class SceneDrawer:
+    """GPU resources for one exported scene; ``draw_*`` calls need an active framebuffer."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.surface = shader(SURFACE_SHADER)
+        self.background_shader = shader(BACKGROUND_SHADER)
+        self.resolve_shader = shader(RESOLVE_SHADER)
+        self.tables = []
+        for material in scene.materials:
+            packed = pack(material.btf)
+            self.tables.append((texture(packed.ints, "R32F"), texture(packed.floats, "R32F")))
+        self.batches = []
+        for mesh in scene.meshes:
+            data = mesh.world_space_corners()
+            if len(data) == 0:
+                continue
+            batch = batch_for_shader(
+                self.surface,
+                "TRIS",
+                {
+                    "pos": data[:, 0:3],
+                    "nor": data[:, 3:6],
+                    "uv": data[:, 6:8],
+                    "tan": data[:, 8:12],
+                },
+            )
+            self.batches.append((batch, mesh.material))
+        env = scene.environment
+        rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
+        # Rows go up top first: texture coordinate t = 0 is the first row uploaded, and the
+        # shader reads t = 0 as the zenith (shaders/env_lib.glsl), as the moderngl renderer does.
+        self.env_tex = texture(rgba, "RGBA32F")
+        self.quad_bg = batch_for_shader(self.background_shader, "TRIS", {"pos": QUAD})
+        self.quad_resolve = batch_for_shader(self.resolve_shader, "TRIS", {"pos": QUAD})
+        self.lights_tex = None
+        self.state: ProgressiveState | None = None
+
+    def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
+        n = len(lights.pdf)
+        texels = np.zeros((1, 2 * n, 4), dtype=np.float32)
+        texels[0, 0::2, :3] = lights.direction
+        texels[0, 1::2, :3] = lights.radiance / lights.pdf[:, None]
+        self.lights_tex = texture(texels, "RGBA32F")
+        self.state = ProgressiveState(total=n, per_pass=per_pass)
+
+    def draw_background(self, clip_from_world: np.ndarray, size: tuple[int, int]) -> None:
+        gpu.state.depth_test_set("NONE")
+        gpu.state.blend_set("NONE")
+        sh = self.background_shader
+        sh.bind()
+        sh.uniform_float("world_from_clip", _matrix(np.linalg.inv(clip_from_world)))
+        sh.uniform_float("viewport_size", size)
+        sh.uniform_float("env_params", (self.scene.environment.rotation_z_rad, 1.0))
+        sh.uniform_sampler("environment", self.env_tex)
+        self.quad_bg.draw(sh)
+
+    def draw_surfaces(self, clip_from_world, camera, first: int, count: int, depth_only: bool):
+        sh = self.surface
+        sh.bind()
+        sh.uniform_float("clip_from_world", _matrix(clip_from_world))
+        sh.uniform_float("camera", tuple(camera))
+        if depth_only:
+            gpu.state.depth_test_set("LESS")
+            gpu.state.depth_mask_set(True)
+            gpu.state.color_mask_set(False, False, False, False)
+            gpu.state.blend_set("NONE")
+        else:
+            gpu.state.depth_test_set("EQUAL")
+            gpu.state.depth_mask_set(False)
+            gpu.state.color_mask_set(True, True, True, True)
+            gpu.state.blend_set("ADDITIVE_PREMULT")
+        for batch, material_index in self.batches:
+            material = self.scene.materials[material_index]
+            ints, floats = self.tables[material_index]
+            sh.uniform_sampler("btf_int_tables", ints)
+            sh.uniform_sampler("btf_float_tables", floats)
+            sh.uniform_sampler("lights", self.lights_tex)
+            m = material.uv_transform()
+            sh.uniform_float("uv_transform", (m[0, 0], m[1, 0], m[0, 1], m[1, 1]))
+            sh.uniform_float("light_range", (first, count, 2.0**material.exposure, 0.0))
+            batch.draw(sh)
+        gpu.state.color_mask_set(True, True, True, True)
+        gpu.state.depth_mask_set(True)
+        gpu.state.blend_set("NONE")
+        gpu.state.depth_test_set("NONE")
+
+    def draw_resolve(self, accumulation, background) -> None:
+        sh = self.resolve_shader
+        sh.bind()
+        sh.uniform_sampler("accumulation", accumulation)
+        sh.uniform_sampler("background", background)
+        sh.uniform_float("resolve_params", (max(self.state.done if self.state else 0, 1), 0, 0, 0))
+        self.quad_resolve.draw(sh)

@@ -1,0 +1,20 @@
+"""The lights a frame is shaded with, from the render settings and the exported scene."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.envmap import VirtualLights
+from ..render.scene import Scene
+
+#: Headlight irradiance: π makes a white Lambertian surface facing the viewer show 1.0.
+HEADLIGHT_IRRADIANCE = np.pi
+
+
+def frame_lights(settings, scene: Scene, towards_viewer: np.ndarray) -> VirtualLights:
+    """``towards_viewer``: unit world direction from the scene to the viewer (the headlight)."""
+    if settings.lighting == "HEADLIGHT":
+        d = np.asarray(towards_viewer, dtype=np.float64)
+        d = d / np.linalg.norm(d)
+        return VirtualLights(d[None], np.full((1, 3), HEADLIGHT_IRRADIANCE), np.ones(1))
+    return scene.environment.virtual_lights(settings.lights_total, seed=settings.seed)

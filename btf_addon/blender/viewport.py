@@ -1,0 +1,111 @@
+"""The engine's viewport: progressive GLSL drawing, restarted by any change.
+
+view_update records what the depsgraph says changed; view_draw re-exports the scene only when
+something was (re-upload), restarts the accumulation when the view or scene changed, adds K
+lights per redraw and asks for another redraw until all N are in.
+"""
+
+from __future__ import annotations
+
+import gpu
+import numpy as np
+from gpu_extras.presets import draw_texture_2d
+
+from ..core.errors import BTFError
+from ..gl.interface import ShaderCompileError
+from .export import export_scene
+from .gpu_draw import SceneDrawer
+from .lighting import frame_lights
+
+
+class ViewportState:
+    def __init__(self):
+        self.drawer: SceneDrawer | None = None
+        self.scene_dirty = True
+        self.view_key: tuple | None = None
+        self.size: tuple[int, int] = (0, 0)
+        self.background = self.accumulation = self.output = None
+        self.error = ""
+
+    def free_buffers(self) -> None:
+        for offscreen in (self.background, self.accumulation, self.output):
+            if offscreen is not None:
+                offscreen.free()
+        self.background = self.accumulation = self.output = None
+
+
+def _state(engine) -> ViewportState:
+    if not hasattr(engine, "btf_viewport"):
+        engine.btf_viewport = ViewportState()
+    return engine.btf_viewport
+
+
+def view_update(engine, context, depsgraph) -> None:
+    state = _state(engine)
+    # Geometry, transforms, materials, the World and our settings all invalidate the export;
+    # the first update after creation carries no updates but the export is still pending.
+    if any(True for _ in depsgraph.updates):
+        state.scene_dirty = True
+
+
+def view_draw(engine, context, depsgraph) -> None:
+    state = _state(engine)
+    region, rv3d = context.region, context.region_data
+    scene = depsgraph.scene
+    settings = scene.btf_render
+    size = (region.width, region.height)
+    if state.scene_dirty or state.drawer is None:
+        try:
+            state.drawer = SceneDrawer(export_scene(depsgraph, *size))
+            state.error = ""
+        except (BTFError, ShaderCompileError) as exc:
+            state.drawer, state.error = None, str(exc)
+            engine.report({"ERROR"}, state.error)
+            return
+        state.scene_dirty = False
+        state.view_key = None  # new scene: new lights, restart below
+    drawer = state.drawer
+    clip_from_world = np.array(rv3d.perspective_matrix, dtype=np.float64)
+    world_from_view = np.linalg.inv(np.array(rv3d.view_matrix, dtype=np.float64))
+    if rv3d.is_perspective:
+        camera = [*world_from_view[:3, 3], 1.0]
+    else:
+        camera = [*world_from_view[:3, 2], 0.0]
+    key = (
+        tuple(clip_from_world.round(9).ravel()),
+        size,
+        settings.lighting,
+        settings.lights_total,
+        settings.lights_per_redraw,
+        settings.progressive,
+        settings.seed,
+    )
+    if size != state.size:
+        state.free_buffers()
+        state.size = size
+        state.background = gpu.types.GPUOffScreen(*size, format="RGBA32F")
+        state.accumulation = gpu.types.GPUOffScreen(*size, format="RGBA32F")
+        state.output = gpu.types.GPUOffScreen(*size, format="RGBA16F")
+    if key != state.view_key:
+        per_pass = settings.lights_per_redraw if settings.progressive else settings.lights_total
+        drawer.set_lights(frame_lights(settings, drawer.scene, world_from_view[:3, 2]), per_pass)
+        with state.background.bind():
+            drawer.draw_background(clip_from_world, size)
+        with state.accumulation.bind():
+            gpu.state.active_framebuffer_get().clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            drawer.draw_surfaces(clip_from_world, camera, 0, 0, depth_only=True)
+        state.view_key = key
+    if not drawer.state.converged:
+        first, count = drawer.state.next_batch()
+        with state.accumulation.bind():
+            drawer.draw_surfaces(clip_from_world, camera, first, count, depth_only=False)
+        drawer.state.advance(count)
+    with state.output.bind():
+        drawer.draw_resolve(state.accumulation.texture_color, state.background.texture_color)
+    gpu.state.blend_set("ALPHA_PREMULT")
+    engine.bind_display_space_shader(scene)
+    draw_texture_2d(state.output.texture_color, (0, 0), *size)
+    engine.unbind_display_space_shader()
+    gpu.state.blend_set("NONE")
+    if not drawer.state.converged:
+        engine.tag_redraw()
