@@ -90,8 +90,8 @@ def pack(btf: BTF) -> PackedTables:
     codec = btf.meta.codec
     if codec not in CODEC_IDS:
         raise UnsupportedBTFError(
-            f"the GLSL back end does not draw {codec!r} BTFs yet; tabulate procedural presets "
-            "first or use the numpy back end"
+            f"the GPU back ends (GLSL, OpenCL) do not evaluate {codec!r} BTFs; tabulate "
+            "procedural presets first (synth --tabulate) or use the numpy back end"
         )
     ih = dict.fromkeys(INT_HEADER, 0)
     assert len(INT_HEADER) <= HEADER_INTS

@@ -84,7 +84,7 @@ def test_glsl_dense_matches(gl_ctx, rng):
 def test_unsupported_codec_is_a_clear_error(gl_ctx):
     from btf_addon.gl.query import GLSLBTF
 
-    with pytest.raises(UnsupportedBTFError, match="GLSL back end"):
+    with pytest.raises(UnsupportedBTFError, match="GPU back ends"):
         GLSLBTF(woven(texels=2, fine_per_texel=4), gl_ctx)
 
 

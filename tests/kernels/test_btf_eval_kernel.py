@@ -9,7 +9,9 @@ from helpers import shared_material
 from btf_addon.cl import programs
 from btf_addon.cl.devices import list_devices
 from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.dense import tabulate
 from btf_addon.core.errors import UnsupportedBTFError
+from btf_addon.core.grid import uniform_ring_grid
 from btf_addon.core.microgeometry import woven
 from btf_addon.core.mlvq import MLVQBTF
 
@@ -53,6 +55,9 @@ def _btfs():
         "wallpaper": lambda: MLVQBTF.from_directory(shared_material("wallpaper")),
         "lambertian": lambda: LambertianBTF((0.8, 0.5, 0.2)),
         "ggx": lambda: GGXBTF((0.9, 0.7, 0.5), 0.35),
+        "dense": lambda: tabulate(
+            woven(texels=4, fine_per_texel=4), uniform_ring_grid(20.0), uniform_ring_grid(15.0)
+        ),
     }
 
 
@@ -83,7 +88,7 @@ def test_procedural_presets_are_refused_clearly(cl_context):
 def test_programs_are_cached_in_memory_and_on_disk(cl_context, tmp_path, monkeypatch):
     monkeypatch.setenv("BTF_CL_CACHE", str(tmp_path))
     monkeypatch.setattr(programs, "_memory_cache", {})
-    defines = {"MLVQ_HDR": 0, "MLVQ_COS_BETA": 1}
+    defines = {"TEST_VARIANT": 1}
     before = dict(programs.stats)
     programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
     assert programs.stats["compiled"] == before["compiled"] + 1
