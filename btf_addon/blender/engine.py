@@ -21,6 +21,16 @@ class BTFRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         final_render.render(self, depsgraph)
 
+    def update_render_passes(self, scene=None, renderlayer=None):
+        """Passes this engine writes, shown in the compositor when enabled on the view layer."""
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        if renderlayer.use_pass_z:
+            self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
+        if renderlayer.use_pass_normal:
+            self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+        if renderlayer.use_pass_uv:
+            self.register_pass(scene, renderlayer, "UV", 3, "UVA", "VECTOR")
+
     def view_update(self, context, depsgraph):
         viewport.view_update(self, context, depsgraph)
 

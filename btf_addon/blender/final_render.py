@@ -1,8 +1,9 @@
-"""F12: the scene camera's image through the GLSL drawer in an offscreen buffer.
+"""F12: the scene camera's image.
 
-Until the OpenCL ray tracer lands (issue: final render through OpenCL), the final render is the
-viewport's direct lighting from all N virtual lights at full resolution — no shadows, no
-interreflection — with progress, cancel and warnings as a render should have.
+With OpenCL (the device chosen in the preferences, else the best one): the ray-traced
+deterministic direct-lighting mode — exactly the N virtual lights, shadow rays where the scene
+can have shadows — writing Combined, Depth, Normal and UV passes. Without a usable OpenCL device
+the render says so and falls back to the GLSL drawer (no shadows) in an offscreen buffer.
 """
 
 from __future__ import annotations
@@ -10,8 +11,11 @@ from __future__ import annotations
 import gpu
 import numpy as np
 
+from ..cl.context import OpenCLUnavailableError, create_context
+from ..cl.renderer import CLRenderer
 from ..core.errors import BTFError
 from ..gl.interface import ShaderCompileError
+from .addon import ADDON_PACKAGE
 from .export import export_scene
 from .gpu_draw import SceneDrawer
 from .lighting import frame_lights
@@ -26,12 +30,73 @@ def render(engine, depsgraph) -> None:
     h = max(1, int(scene.render.resolution_y * pct))
     try:
         exported = export_scene(depsgraph, w, h)
-        drawer = SceneDrawer(exported)
-    except (BTFError, ShaderCompileError) as exc:
+    except BTFError as exc:
         engine.report({"ERROR"}, str(exc))
         return
     for message in exported.messages:
         engine.report({"WARNING"}, message)
+    try:
+        renderer = CLRenderer(exported, w, h, create_context(preferred_device()))
+    except (OpenCLUnavailableError, RuntimeError, BTFError) as exc:
+        engine.report(
+            {"WARNING"},
+            f"OpenCL unavailable ({exc}); rendering with the GLSL "
+            "viewport path instead (no shadows)",
+        )
+        render_glsl(engine, exported, scene, w, h)
+        return
+    cam = exported.camera
+    lights = frame_lights(scene.btf_render, exported, cam.world_from_camera[:3, 2])
+    engine.update_stats(
+        "",
+        f"BTF | OpenCL on {renderer.ctx.device_name} | "
+        f"{renderer.triangle_count} triangles, {len(lights.pdf)} lights, "
+        f"shadows {'on' if renderer.features.shadows else 'off (none possible)'}",
+    )
+
+    def progress(fraction: float) -> bool:
+        engine.update_progress(fraction)
+        return not engine.test_break()
+
+    passes = renderer.render_direct(lights, progress)
+    view_layer = depsgraph.view_layer
+    for enabled, name, channels, chan_id in (
+        (view_layer.use_pass_z, "Depth", 1, "Z"),
+        (view_layer.use_pass_normal, "Normal", 3, "XYZ"),
+        (view_layer.use_pass_uv, "UV", 3, "UVA"),
+    ):
+        if enabled:  # passes must exist before the result is created
+            engine.add_pass(name, channels, chan_id, layer=view_layer.name)
+    result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
+    layer = result.layers[0]
+    bottom_first = {  # Blender's render buffers start at the bottom row
+        "Combined": passes.combined,
+        "Depth": passes.depth[..., None],
+        "Normal": passes.normal,
+        "UV": np.concatenate([passes.uv, np.ones_like(passes.depth)[..., None]], axis=-1),
+    }
+    for name, image in bottom_first.items():
+        render_pass = layer.passes.find_by_name(name, "")
+        if render_pass is not None:
+            render_pass.rect = np.ascontiguousarray(image[::-1]).reshape(w * h, -1)
+    engine.end_result(result)
+
+
+def preferred_device() -> int | None:
+    """The device index from the add-on preferences, or None for automatic."""
+    import bpy
+
+    addon = bpy.context.preferences.addons.get(ADDON_PACKAGE)
+    choice = getattr(getattr(addon, "preferences", None), "opencl_device", "AUTO")
+    return int(choice[3:]) if choice.startswith("DEV") else None
+
+
+def render_glsl(engine, exported, scene, w: int, h: int) -> None:
+    try:
+        drawer = SceneDrawer(exported)
+    except (BTFError, ShaderCompileError) as exc:
+        engine.report({"ERROR"}, str(exc))
+        return
     cam = exported.camera
     clip_from_world = cam.projection(w / h) @ np.linalg.inv(cam.world_from_camera)
     camera = [*cam.position, 1.0] if cam.perspective else [*cam.world_from_camera[:3, 2], 0.0]

@@ -20,9 +20,16 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", required=True, type=Path, help=".png or .exr")
     p.add_argument(
         "--engine",
-        choices=["glsl"],
-        default="glsl",
-        help="glsl: the viewport's renderer, direct lighting from virtual lights",
+        choices=["opencl", "glsl"],
+        default="opencl",
+        help="opencl: the final render (ray traced, shadows); glsl: the viewport's renderer "
+        "(no shadows); both light with the same virtual lights",
+    )
+    p.add_argument(
+        "--device",
+        type=int,
+        default=None,
+        help="OpenCL device index as listed by `doctor` (default: best GPU, else CPU)",
     )
     p.add_argument(
         "--resolution",
@@ -80,7 +87,6 @@ def cmd_render(args) -> int:
     from .. import blender
     from ..blender.demo import build_demo_scene
     from ..blender.export import export_scene
-    from ..gl.renderer import GLSLRenderer
 
     registered = hasattr(bpy.types.Material, "btf")
     if not registered:  # no installed copy enabled in this Blender: register this one
@@ -105,12 +111,8 @@ def cmd_render(args) -> int:
     for message in render_scene.messages:
         print(f"warning: {message}", file=sys.stderr)
     t_export = time.perf_counter()
-    try:
-        renderer = GLSLRenderer(render_scene, width, height)
-    except RuntimeError as exc:
-        raise BTFError(f"the GLSL renderer is unavailable: {exc}") from None
     lights = render_scene.environment.virtual_lights(n_lights)
-    image = renderer.render(lights, per_pass=args.samples)
+    image = _render(args, render_scene, width, height, lights)
     t_render = time.perf_counter()
     if suffix == ".exr":
         write_exr(args.output, image)
@@ -118,8 +120,27 @@ def cmd_render(args) -> int:
         write_png(args.output, srgb8_from_linear(image))
     print(
         f"rendered {width}x{height} with {n_lights} virtual lights: scene export "
-        f"{t_export - t0:.2f} s, GLSL render {t_render - t_export:.2f} s -> {args.output}"
+        f"{t_export - t0:.2f} s, {args.engine} render {t_render - t_export:.2f} s -> {args.output}"
     )
     if not np.all(np.isfinite(image)):
         raise BTFError("the render produced non-finite pixels")
     return 0
+
+
+def _render(args, scene, width: int, height: int, lights) -> np.ndarray:
+    if args.engine == "glsl":
+        from ..gl.renderer import GLSLRenderer
+
+        try:
+            renderer = GLSLRenderer(scene, width, height)
+        except RuntimeError as exc:
+            raise BTFError(f"the GLSL renderer is unavailable: {exc}") from None
+        return renderer.render(lights, per_pass=args.samples)
+    from ..cl.context import OpenCLUnavailableError, create_context
+    from ..cl.renderer import CLRenderer
+
+    try:
+        renderer = CLRenderer(scene, width, height, create_context(args.device))
+    except (OpenCLUnavailableError, RuntimeError) as exc:
+        raise BTFError(f"OpenCL final render unavailable ({exc}); try --engine glsl") from None
+    return renderer.render_direct(lights).combined[..., :3]

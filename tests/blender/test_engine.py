@@ -1,5 +1,6 @@
-"""The BTF render engine inside Blender: F12 through the gpu module, against the standalone
-moderngl renderer drawing the same exported scene with the same shaders."""
+"""The BTF render engine inside Blender: F12 through OpenCL (against the same renderer run on
+the exported scene), its GLSL fallback through the gpu module (against the standalone moderngl
+renderer, same shaders), passes, errors."""
 
 from __future__ import annotations
 
@@ -47,23 +48,53 @@ def build_scene(bpy, tmp_path, material_source, size=(96, 64)):
     return scene
 
 
-def f12_and_reference(bpy, scene, tmp_path):
+def f12_and_reference(bpy, scene, tmp_path, engine="opencl"):
     bpy.ops.render.render(write_still=True)
     rendered = read_exr(tmp_path / "f12.exr")
     export = extension_submodule("btf_addon.blender.export")
-    renderer = extension_submodule("btf_addon.gl.renderer")
     w, h = scene.render.resolution_x, scene.render.resolution_y
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), w, h)
     lights = exported.environment.virtual_lights(scene.btf_render.lights_total)
-    return rendered, renderer.GLSLRenderer(exported, w, h).render(lights)
+    if engine == "glsl":
+        renderer = extension_submodule("btf_addon.gl.renderer")
+        return rendered, renderer.GLSLRenderer(exported, w, h).render(lights)
+    cl_renderer = extension_submodule("btf_addon.cl.renderer")
+    cl_context = extension_submodule("btf_addon.cl.context")
+    passes = cl_renderer.CLRenderer(exported, w, h, cl_context.create_context()).render_direct(
+        lights
+    )
+    return rendered, passes.combined[..., :3]
 
 
-def test_f12_matches_the_standalone_renderer(bpy_module, fresh_scene, tmp_path):
+@pytest.fixture
+def without_opencl(monkeypatch):
+    """As on a machine with no OpenCL driver: the final render must fall back, not fail."""
+    final_render = extension_submodule("btf_addon.blender.final_render")
+    context = extension_submodule("btf_addon.cl.context")
+
+    def unavailable(_index=None):
+        raise context.OpenCLUnavailableError("no OpenCL platform found (test)")
+
+    monkeypatch.setattr(final_render, "create_context", unavailable)
+
+
+def test_f12_renders_through_opencl(bpy_module, fresh_scene, tmp_path):
     from btf_addon.core.analytic import GGXBTF
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
     scene = build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
     rendered, reference = f12_and_reference(bpy_module, scene, tmp_path)
+    assert rendered.shape == reference.shape
+    np.testing.assert_allclose(rendered, reference, rtol=1e-5, atol=1e-6)
+    assert rendered[32, 48].max() > 0.05  # the sphere is there and lit
+
+
+def test_f12_without_opencl_falls_back_to_glsl(bpy_module, fresh_scene, tmp_path, without_opencl):
+    from btf_addon.core.analytic import GGXBTF
+
+    write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
+    scene = build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
     assert rendered.shape == reference.shape
     # Same shaders, same data, two OpenGL pipelines (Blender's and moderngl's): agreement to
     # single-precision rounding.
@@ -71,11 +102,11 @@ def test_f12_matches_the_standalone_renderer(bpy_module, fresh_scene, tmp_path):
     assert rendered[32, 48].max() > 0.05  # the sphere is there and lit
 
 
-def test_f12_with_measured_btf(bpy_module, fresh_scene, tmp_path):
+def test_f12_glsl_fallback_with_measured_btf(bpy_module, fresh_scene, tmp_path, without_opencl):
     """With nearest-texel BTF lookups, pixels exactly on texel edges may pick the neighbour in
     one pipeline and not the other: allow 5% of pixels to differ, the rest must agree."""
     scene = build_scene(bpy_module, tmp_path, shared_material("alu"))
-    rendered, reference = f12_and_reference(bpy_module, scene, tmp_path)
+    rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
     differs = np.abs(rendered - reference).max(axis=2) > 1e-3 * reference.max()
     assert differs.mean() < 0.05
 
@@ -121,3 +152,17 @@ def test_headlight_mode_lights_the_view(bpy_module, fresh_scene, tmp_path, light
     # A white Lambertian facing the headlight (irradiance π) shows ≈ 1.0 at the sphere centre.
     centre = rendered[32 - 6, 48]  # the camera looks slightly down: the sphere centre is above
     assert 0.8 < centre.mean() < 1.05
+
+
+def test_f12_with_passes_enabled(bpy_module, fresh_scene, tmp_path):
+    """Depth, Normal and UV passes are added to the result when enabled (their values are
+    checked on the renderer itself in tests/kernels; Blender 5's write_still saves only the
+    Combined pass of a multilayer EXR, for Cycles too, so they cannot be read back here)."""
+    from btf_addon.core.analytic import LambertianBTF
+
+    write_container(tmp_path / "white.btfm", LambertianBTF(0.5))
+    scene = build_scene(bpy_module, tmp_path, tmp_path / "white.btfm")
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = layer.use_pass_uv = True
+    bpy_module.ops.render.render(write_still=True)
+    assert read_exr(tmp_path / "f12.exr")[32, 48].max() > 0.05

@@ -59,7 +59,21 @@ def test_demo_renders_a_png_and_reports_timing(tmp_path):
         "render", "--demo", "-o", out, "--resolution", "96x54", "--lighting", "virtual:8"
     )
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "GLSL render" in proc.stdout and "96x54" in proc.stdout
+    assert "opencl render" in proc.stdout and "96x54" in proc.stdout
+    glsl = tmp_path / "demo_glsl.png"
+    proc = run_cli(
+        "render",
+        "--demo",
+        "-o",
+        glsl,
+        "--resolution",
+        "96x54",
+        "--lighting",
+        "virtual:8",
+        "--engine",
+        "glsl",
+    )
+    assert "glsl render" in proc.stdout and glsl.exists()
 
 
 def test_blend_with_relative_btf_path_and_missing_uvs(tmp_path):

@@ -1,0 +1,177 @@
+"""The OpenCL final render over a plain-array scene (render/scene.py).
+
+Deterministic direct-lighting mode: exactly the given virtual lights per pixel, with shadow rays
+only when the scene analysis says a surface can shadow another (render/analysis.py), compiled as
+a ``-D`` variant and cached. Rows are rendered in bands so progress can be reported and a cancel
+honoured between bands; device memory holds one band of passes at a time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.envmap import VirtualLights
+from ..gl.tables import pack
+from ..render.analysis import SceneFeatures, analyse
+from ..render.bvh import build_bvh
+from ..render.scene import Scene
+from .context import CLContext
+from .programs import build_program
+
+BAND_PIXELS = 1 << 17  # pixels per kernel launch: bounds device memory and cancel latency
+
+
+@dataclass
+class RenderPasses:
+    """combined: (h, w, 4) RGBA; depth: (h, w); normal: (h, w, 3); uv: (h, w, 2); row 0 = top."""
+
+    combined: np.ndarray
+    depth: np.ndarray
+    normal: np.ndarray
+    uv: np.ndarray
+
+
+class CLRenderer:
+    def __init__(
+        self,
+        scene: Scene,
+        width: int,
+        height: int,
+        cl_context: CLContext,
+        features: SceneFeatures | None = None,
+    ):
+        import pyopencl as cl
+
+        self.cl = cl
+        self.scene, self.width, self.height, self.ctx = scene, width, height, cl_context
+        self.features = features or analyse(scene)
+        program = build_program(
+            cl_context.context, cl_context.device, "render_direct.cl", self.features.defines()
+        )
+        self.kernel = cl.Kernel(program, "render_direct")
+        self._upload_geometry()
+        self._upload_materials()
+        env = scene.environment
+        rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
+        self.env = self._buffer(rgba.ravel(), np.float32)
+
+    def _buffer(self, array, dtype):
+        mf = self.cl.mem_flags
+        data = np.ascontiguousarray(array, dtype=dtype)
+        if data.size == 0:
+            data = np.zeros(1, dtype=dtype)  # OpenCL buffers cannot be empty
+        return self.cl.Buffer(self.ctx.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=data)
+
+    def _upload_geometry(self) -> None:
+        corners, materials = [], []
+        for mesh in self.scene.meshes:
+            data = mesh.world_space_corners()
+            corners.append(data)
+            materials.append(np.full(len(data) // 3, mesh.material, dtype=np.int32))
+        corners = np.concatenate(corners) if corners else np.zeros((0, 12), np.float32)
+        tri_material = np.concatenate(materials) if materials else np.zeros(0, np.int32)
+        tris = corners.reshape(-1, 3, 12)
+        if len(tris):
+            bvh = build_bvh(tris[:, :, :3])
+            tris, tri_material = tris[bvh.order], tri_material[bvh.order]
+            bounds, links = bvh.bounds, bvh.links
+            extent = float(np.ptp(tris[:, :, :3].reshape(-1, 3), axis=0).max())
+        else:  # an empty scene: one empty leaf that nothing can hit
+            bounds = np.array([[1, 1, 1, -1, -1, -1]], dtype=np.float32)
+            links = np.array([[0, 0]], dtype=np.int32)
+            extent = 1.0
+        self.triangle_count = len(tris)
+        # Shadow-ray offset relative to the scene size: works from millimetres to kilometres.
+        self.eps = np.float32(max(extent, 1e-6) * 1e-5)
+        self.bounds = self._buffer(bounds.ravel(), np.float32)
+        self.links = self._buffer(links.ravel(), np.int32)
+        self.corners = self._buffer(tris.ravel(), np.float32)
+        self.tri_material = self._buffer(tri_material, np.int32)
+
+    def _upload_materials(self) -> None:
+        ints, floats, offsets, params = [], [], [], []
+        i_cursor = f_cursor = 0
+        for material in self.scene.materials:
+            packed = pack(material.btf)
+            ints.append(packed.ints.ravel())
+            floats.append(packed.floats.ravel())
+            offsets += [i_cursor, f_cursor]
+            i_cursor += packed.ints.size
+            f_cursor += packed.floats.size
+            m = material.uv_transform()
+            params.append([m[0, 0], m[1, 0], m[0, 1], m[1, 1], 2.0**material.exposure, 0, 0, 0])
+        self.ints = self._buffer(np.concatenate(ints) if ints else [], np.float32)
+        self.floats = self._buffer(np.concatenate(floats) if floats else [], np.float32)
+        self.material_offsets = self._buffer(offsets, np.int32)
+        self.material_params = self._buffer(np.array(params, dtype=np.float32).ravel(), np.float32)
+
+    def render_direct(
+        self, lights: VirtualLights, progress: Callable[[float], bool] | None = None
+    ) -> RenderPasses:
+        """All passes; ``progress(fraction)`` returning False stops early (rows left black)."""
+        cl = self.cl
+        w, h = self.width, self.height
+        cam = self.scene.camera
+        clip_from_world = cam.projection(w / h) @ np.linalg.inv(cam.world_from_camera)
+        world_from_clip = np.linalg.inv(clip_from_world).astype(np.float32)
+        axis = -cam.world_from_camera[:3, 2]
+        forward = np.array([*axis, -float(axis @ cam.position)], dtype=np.float32)
+        light_data = np.zeros((len(lights.pdf), 8), dtype=np.float32)
+        light_data[:, :3] = lights.direction
+        light_data[:, 4:7] = lights.radiance / lights.pdf[:, None]
+        env = self.scene.environment
+        passes = RenderPasses(
+            np.zeros((h, w, 4), np.float32),
+            np.zeros((h, w), np.float32),
+            np.zeros((h, w, 3), np.float32),
+            np.zeros((h, w, 2), np.float32),
+        )
+        rows = max(1, min(h, BAND_PIXELS // w))
+        mf = cl.mem_flags
+        outs = [cl.Buffer(self.ctx.context, mf.WRITE_ONLY, rows * w * 4 * k) for k in (4, 1, 3, 2)]
+        wfc = self._buffer(world_from_clip.ravel(), np.float32)
+        lights_buf = self._buffer(light_data.ravel(), np.float32)
+        for row0 in range(0, h, rows):
+            band = min(rows, h - row0)
+            self.kernel(
+                self.ctx.queue,
+                (w, band),
+                None,
+                np.int32(w),
+                np.int32(h),
+                np.int32(row0),
+                wfc,
+                forward,
+                np.int32(self.triangle_count),
+                self.bounds,
+                self.links,
+                self.corners,
+                self.tri_material,
+                self.ints,
+                self.floats,
+                self.material_offsets,
+                self.material_params,
+                lights_buf,
+                np.int32(len(lights.pdf)),
+                self.eps,
+                self.env,
+                np.int32(env.width),
+                np.int32(env.height),
+                np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
+                *outs,
+            )
+            for buf, target, k in zip(
+                outs,
+                (passes.combined, passes.depth, passes.normal, passes.uv),
+                (4, 1, 3, 2),
+                strict=True,
+            ):
+                host = np.empty(band * w * k, dtype=np.float32)
+                cl.enqueue_copy(self.ctx.queue, host, buf)
+                target[row0 : row0 + band] = host.reshape(target[row0 : row0 + band].shape)
+            if progress is not None and not progress((row0 + band) / h):
+                break
+        return passes
