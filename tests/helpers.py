@@ -39,3 +39,15 @@ def random_hemisphere(rng: np.random.Generator, n: int) -> np.ndarray:
     d = rng.normal(size=(n, 3))
     d[:, 2] = np.abs(d[:, 2])
     return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def cli_env(**overrides: str) -> dict[str, str]:
+    """Environment for a CLI subprocess: this checkout importable from any folder, and not the
+    isolated Blender user folder that tests/blender sets for this process (a subprocess would
+    otherwise load the installed extension's bundled wheels ahead of the venv's packages)."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "BLENDER_USER_RESOURCES"}
+    env["PYTHONPATH"] = str(ROOT)
+    env.update(overrides)
+    return env

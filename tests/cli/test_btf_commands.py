@@ -8,13 +8,14 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import ROOT, shared_material, studiolights_dir
+from helpers import ROOT, cli_env, shared_material, studiolights_dir
 
 from btf_addon.core.codecs import load_btf
 from btf_addon.core.imageio import read_exr, write_exr
 
 
 def run_cli(*args, check=True, env=None):
+    env = env or cli_env()
     proc = subprocess.run(
         [sys.executable, "-m", "btf_addon", *map(str, args)],
         cwd=ROOT,
@@ -204,10 +205,9 @@ def test_eval_opencl_backend_matches_numpy(tmp_path, rng):
 
 
 def test_eval_opencl_without_opencl_is_a_clear_error(tmp_path):
-    import os
 
     np.save(tmp_path / "q.npy", np.zeros((4, 6), np.float32))
-    env = dict(os.environ, OCL_ICD_VENDORS=str(tmp_path / "none"), OCL_ICD_FILENAMES="")
+    env = cli_env(OCL_ICD_VENDORS=str(tmp_path / "none"), OCL_ICD_FILENAMES="")
     proc = run_cli(
         "eval",
         shared_material("alu"),

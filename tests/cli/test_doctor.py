@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 
-from helpers import ROOT
+from helpers import ROOT, cli_env
 
 
 def doctor(env_overrides: dict) -> dict:
-    env = dict(os.environ, **env_overrides)
+    env = cli_env(**env_overrides)
     proc = subprocess.run(
         [sys.executable, "-m", "btf_addon", "doctor"],
         cwd=ROOT,

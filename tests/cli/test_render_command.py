@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import textwrap
 
 import numpy as np
 import pytest
-from helpers import ROOT
+from helpers import ROOT, cli_env
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.container import write_container
@@ -17,7 +16,7 @@ from btf_addon.core.imageio import read_exr
 
 
 def run_cli(*args, check=True, cwd=ROOT):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))  # the package, whatever the working folder
+    env = cli_env()
     proc = subprocess.run(
         [sys.executable, "-m", "btf_addon", *map(str, args)],
         cwd=cwd,
@@ -48,7 +47,12 @@ def make_blend(path, script: str) -> None:
         + f"\nbpy.ops.wm.save_as_mainfile(filepath={str(path)!r})\n"
     )
     proc = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=False, timeout=300
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+        env=cli_env(),
     )
     assert proc.returncode == 0, proc.stderr
 
