@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 from common import SHARED_BTFBASE, table, timed
+from helpers import random_queries
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.mlvq import MLVQBTF
@@ -20,16 +21,7 @@ N_SCALAR = 2_000
 
 def main() -> str:
     rng = np.random.default_rng(1)
-    q = np.column_stack(
-        [
-            rng.random(N),
-            rng.random(N),
-            rng.random(N) * 90,
-            rng.random(N) * 360,
-            rng.random(N) * 90,
-            rng.random(N) * 360,
-        ]
-    )
+    q = random_queries(rng, N)
     rows = []
     for name in ("alu", "wallpaper"):
         path = SHARED_BTFBASE / name

@@ -6,12 +6,20 @@ import platform
 
 import bench_decode
 import bench_envmap
+import bench_final_render
 import bench_interpolation
+import bench_viewport
 
 if __name__ == "__main__":
     print(
         f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}"
     )
-    for module in (bench_decode, bench_interpolation, bench_envmap):
+    for module in (
+        bench_decode,
+        bench_interpolation,
+        bench_envmap,
+        bench_viewport,
+        bench_final_render,
+    ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")
         print(module.main())

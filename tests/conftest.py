@@ -20,3 +20,27 @@ def rng() -> np.random.Generator:
 @pytest.fixture(params=MATERIALS)
 def material_dir(request) -> Path:
     return shared_material(request.param)
+
+
+@pytest.fixture(scope="session")
+def gl_ctx():
+    """One headless OpenGL (EGL) context for the session's GLSL tests."""
+    from btf_addon.gl.query import create_gl_context
+
+    try:
+        ctx = create_gl_context()
+    except RuntimeError as exc:
+        pytest.skip(f"no headless OpenGL here ({exc}); setup installs Mesa's EGL")
+    yield ctx
+    ctx.release()
+
+
+@pytest.fixture(scope="session")
+def cl_context():
+    """An OpenCL context on the default device (best GPU, else CPU)."""
+    from btf_addon.cl.context import OpenCLUnavailableError, create_context
+
+    try:
+        return create_context()
+    except OpenCLUnavailableError as exc:
+        pytest.skip(f"no OpenCL device ({exc}); setup installs PoCL")

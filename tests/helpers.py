@@ -51,3 +51,17 @@ def cli_env(**overrides: str) -> dict[str, str]:
     env["PYTHONPATH"] = str(ROOT)
     env.update(overrides)
     return env
+
+
+def random_queries(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 6) uniform queries: u, v in [0, 1), θ in [0, 90°), φ in [0, 360°)."""
+    return np.column_stack(
+        [
+            rng.random(n),
+            rng.random(n),
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+            rng.random(n) * 90,
+            rng.random(n) * 360,
+        ]
+    )

@@ -19,6 +19,16 @@ from ..core.imageio import srgb8_from_linear, write_exr, write_png
 from ..core.presets import PRESETS, make_preset, preset_parameters
 
 
+def add_device_argument(parser) -> None:
+    """``--device N``: the OpenCL device, numbered as ``doctor`` lists them."""
+    parser.add_argument(
+        "--device",
+        type=int,
+        default=None,
+        help="OpenCL device index as listed by `doctor` (default: best GPU, else CPU)",
+    )
+
+
 def add_parsers(sub) -> None:
     p = sub.add_parser("info", help="describe a BTF (JSON)")
     p.add_argument("path", help="BTFbase material directory or .btfm container")
@@ -39,12 +49,7 @@ def add_parsers(sub) -> None:
         default="numpy",
         help="numpy: the reference; opencl: the device decode kernels of final renders",
     )
-    p.add_argument(
-        "--device",
-        type=int,
-        default=None,
-        help="OpenCL device index as listed by `doctor` (default: best GPU, else CPU)",
-    )
+    add_device_argument(p)
     p.add_argument(
         "--units",
         choices=["value", "raw"],

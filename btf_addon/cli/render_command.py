@@ -10,6 +10,7 @@ import numpy as np
 
 from ..core.errors import BTFError
 from ..core.imageio import srgb8_from_linear, write_exr, write_png
+from .btf_commands import add_device_argument
 
 
 def add_parser(sub) -> None:
@@ -25,12 +26,7 @@ def add_parser(sub) -> None:
         help="opencl: the final render (ray traced, shadows); glsl: the viewport's renderer "
         "(no shadows); both light with the same virtual lights",
     )
-    p.add_argument(
-        "--device",
-        type=int,
-        default=None,
-        help="OpenCL device index as listed by `doctor` (default: best GPU, else CPU)",
-    )
+    add_device_argument(p)
     p.add_argument(
         "--resolution",
         default=None,

@@ -6,23 +6,11 @@ import shutil
 
 import numpy as np
 import pytest
+from helpers import random_queries
 from scalar_mlvq import ScalarMLVQ
 
 from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
 from btf_addon.core.mlvq import LDR_VALUE_SCALE, MLVQBTF
-
-
-def random_queries(rng, n):
-    return np.column_stack(
-        [
-            rng.random(n),
-            rng.random(n),
-            rng.random(n) * 90,
-            rng.random(n) * 360,
-            rng.random(n) * 90,
-            rng.random(n) * 360,
-        ]
-    )
 
 
 def test_decoder_matches_independent_scalar_decoder(material_dir, rng):

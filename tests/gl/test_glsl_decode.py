@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import shared_material
+from helpers import random_queries, shared_material
 
 from btf_addon.core.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.errors import UnsupportedBTFError
@@ -12,31 +12,6 @@ from btf_addon.core.microgeometry import woven
 from btf_addon.core.mlvq import MLVQBTF
 from btf_addon.gl import interface
 from btf_addon.gl.interface import ShaderCompileError, ShaderInterface
-
-
-@pytest.fixture(scope="module")
-def gl_ctx():
-    from btf_addon.gl.query import create_gl_context
-
-    try:
-        ctx = create_gl_context()
-    except RuntimeError as exc:
-        pytest.skip(f"no headless OpenGL here ({exc}); setup installs Mesa's EGL")
-    yield ctx
-    ctx.release()
-
-
-def random_queries(rng, n):
-    return np.column_stack(
-        [
-            rng.random(n),
-            rng.random(n),
-            rng.random(n) * 90,
-            rng.random(n) * 360,
-            rng.random(n) * 90,
-            rng.random(n) * 360,
-        ]
-    )
 
 
 @pytest.mark.parametrize("name", ["alu", "wallpaper"])

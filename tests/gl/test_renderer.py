@@ -3,24 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.envmap import Environment, VirtualLights
 from btf_addon.render.primitives import plane, uv_sphere
 from btf_addon.render.scene import Camera, Material, Scene, look_at
-
-
-@pytest.fixture(scope="module")
-def gl_ctx():
-    from btf_addon.gl.query import create_gl_context
-
-    try:
-        ctx = create_gl_context()
-    except RuntimeError as exc:
-        pytest.skip(f"no headless OpenGL here ({exc}); setup installs Mesa's EGL")
-    yield ctx
-    ctx.release()
 
 
 def sphere_scene(btf, env=None, **camera):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import shared_material
+from helpers import random_queries, shared_material
 
 from btf_addon.cl import programs
 from btf_addon.cl.devices import list_devices
@@ -28,25 +28,12 @@ pytestmark = pytest.mark.opencl
 
 
 @pytest.fixture(params=DEVICES or [None], ids=lambda i: f"device{i}")
-def cl_context(request):
+def device_context(request):
     if request.param is None:
         pytest.skip("no OpenCL device on this machine (setup installs PoCL: run `make setup`)")
     from btf_addon.cl.context import create_context
 
     return create_context(request.param)
-
-
-def random_queries(rng, n):
-    return np.column_stack(
-        [
-            rng.random(n),
-            rng.random(n),
-            rng.random(n) * 90,
-            rng.random(n) * 360,
-            rng.random(n) * 90,
-            rng.random(n) * 360,
-        ]
-    )
 
 
 def _btfs():
@@ -62,11 +49,11 @@ def _btfs():
 
 
 @pytest.mark.parametrize("name", list(_btfs()))
-def test_device_matches_numpy_reference(cl_context, rng, name):
+def test_device_matches_numpy_reference(device_context, rng, name):
     from btf_addon.cl.evaluate import DeviceBTF
 
     btf = _btfs()[name]()
-    device = DeviceBTF(btf, cl_context)
+    device = DeviceBTF(btf, device_context)
     q = random_queries(rng, 20_000)
     q[:50, 2] = 90.0  # grazing light
     q[50:100, 4] = 0.0  # view at the pole
@@ -78,25 +65,25 @@ def test_device_matches_numpy_reference(cl_context, rng, name):
     np.testing.assert_allclose(got, want, rtol=2e-3, atol=2e-4 * float(want.max()))
 
 
-def test_procedural_presets_are_refused_clearly(cl_context):
+def test_procedural_presets_are_refused_clearly(device_context):
     from btf_addon.cl.evaluate import DeviceBTF
 
     with pytest.raises(UnsupportedBTFError, match="tabulate procedural presets first"):
-        DeviceBTF(woven(texels=2, fine_per_texel=4), cl_context)
+        DeviceBTF(woven(texels=2, fine_per_texel=4), device_context)
 
 
-def test_programs_are_cached_in_memory_and_on_disk(cl_context, tmp_path, monkeypatch):
+def test_programs_are_cached_in_memory_and_on_disk(device_context, tmp_path, monkeypatch):
     monkeypatch.setenv("BTF_CL_CACHE", str(tmp_path))
     monkeypatch.setattr(programs, "_memory_cache", {})
     defines = {"TEST_VARIANT": 1}
     before = dict(programs.stats)
-    programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+    programs.build_program(device_context.context, device_context.device, "btf_eval.cl", defines)
     assert programs.stats["compiled"] == before["compiled"] + 1
     assert len(list(tmp_path.glob("*.bin"))) == 1
-    programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+    programs.build_program(device_context.context, device_context.device, "btf_eval.cl", defines)
     assert programs.stats["memory_hits"] == before["memory_hits"] + 1
     monkeypatch.setattr(programs, "_memory_cache", {})  # as a new process would start
-    programs.build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+    programs.build_program(device_context.context, device_context.device, "btf_eval.cl", defines)
     assert programs.stats["disk_hits"] == before["disk_hits"] + 1
     assert programs.stats["compiled"] == before["compiled"] + 1
 

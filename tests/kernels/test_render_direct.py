@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 from helpers import shared_material
 
-from btf_addon.cl.devices import list_devices
 from btf_addon.core.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.envmap import Environment, VirtualLights
 from btf_addon.core.mlvq import MLVQBTF
@@ -17,29 +16,6 @@ from btf_addon.render.primitives import plane, uv_sphere
 from btf_addon.render.scene import Camera, Material, Scene, look_at
 
 pytestmark = pytest.mark.opencl
-
-
-@pytest.fixture(scope="module")
-def cl_context():
-    try:
-        list_devices()
-    except RuntimeError as exc:
-        pytest.skip(f"no OpenCL device ({exc})")
-    from btf_addon.cl.context import create_context
-
-    return create_context()
-
-
-@pytest.fixture(scope="module")
-def gl_ctx():
-    from btf_addon.gl.query import create_gl_context
-
-    try:
-        ctx = create_gl_context()
-    except RuntimeError as exc:
-        pytest.skip(f"no headless OpenGL ({exc})")
-    yield ctx
-    ctx.release()
 
 
 def sphere_scene(btf, env, meshes=None, eye=(0.0, -4.0, 1.0)):

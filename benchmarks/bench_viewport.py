@@ -1,0 +1,119 @@
+"""Viewport (GLSL) speed and the cost of its quality knobs, on the standalone moderngl renderer
+(the same shaders as Blender's viewport), here on Mesa llvmpipe (software OpenGL, 2 cores).
+
+Scene: a 96×48 UV sphere with the measured alu BTF (or a tabulated woven preset where the shared
+data is absent) on a ground plane with the wallpaper BTF, forest studiolight. Frame = one
+accumulation pass of K lights plus the resolve. Error: relative RMSE against the same view lit by
+4096 virtual lights (the converged image).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from common import SHARED_BTFBASE, table
+from helpers import studiolights_dir
+
+from btf_addon.core.codecs import load_btf
+from btf_addon.core.dense import tabulate
+from btf_addon.core.envmap import Environment
+from btf_addon.core.imageio import read_exr
+from btf_addon.core.microgeometry import woven
+from btf_addon.gl.renderer import GLSLRenderer
+from btf_addon.render.primitives import plane, uv_sphere
+from btf_addon.render.scene import Camera, Material, Scene, look_at
+
+
+def bench_scene() -> Scene:
+    env = Environment(read_exr(studiolights_dir() / "forest.exr"))
+    if (SHARED_BTFBASE / "alu").is_dir():
+        ball, ground = load_btf(SHARED_BTFBASE / "alu"), load_btf(SHARED_BTFBASE / "wallpaper")
+    else:
+        ball = ground = tabulate(woven(texels=8))
+    floor = plane(8.0, uv_repeats=4.0, material=1)
+    floor.world_from_object = np.eye(4)
+    floor.world_from_object[2, 3] = -1.0
+    return Scene(
+        [uv_sphere(1.0, segments=96, rings=48), floor],
+        [Material(ball, uv_scale=2.0), Material(ground)],
+        Camera(look_at((0.0, -4.5, 1.2), (0.0, 0.0, -0.2))),
+        env,
+    )
+
+
+def frame_time(renderer: GLSLRenderer, frames: int) -> float:
+    """Mean seconds per progressive frame (K lights + resolve), after one warm-up frame."""
+    renderer.restart()
+    renderer.render_pass()
+    renderer.resolve()
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        if renderer.state.converged:
+            renderer.restart()
+        renderer.render_pass()
+        renderer.resolve()
+    return (time.perf_counter() - t0) / frames
+
+
+def rel_rmse(a, b):
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def main() -> str:
+    scene = bench_scene()
+    out = []
+    rows = []
+    for w, h in ((800, 600), (1920, 1080)):
+        r = GLSLRenderer(scene, w, h)
+        r.set_lights(scene.environment.virtual_lights(200), per_pass=5)
+        t = frame_time(r, 5)
+        r.restart()
+        t0 = time.perf_counter()
+        while r.render_pass():
+            pass
+        r.resolve()
+        converge = time.perf_counter() - t0
+        rows.append([f"{w}×{h}", round(t * 1000, 1), round(1 / t, 2), round(converge, 2)])
+        r.release()
+    out.append(table(["resolution", "ms per frame (K=5)", "FPS", "s until 200 lights in"], rows))
+
+    w, h = 400, 300
+    r = GLSLRenderer(scene, w, h)
+    reference = r.render(scene.environment.virtual_lights(4096, seed=7), per_pass=256)
+    rows = []
+    for n in (25, 50, 100, 200, 1000):
+        t0 = time.perf_counter()
+        image = r.render(scene.environment.virtual_lights(n), per_pass=n)
+        rows.append([n, round(time.perf_counter() - t0, 3), round(rel_rmse(image, reference), 4)])
+    out.append(table(["N lights (one pass, 400×300)", "s", "relative RMSE vs 4096"], rows))
+
+    rows = []
+    lights = scene.environment.virtual_lights(200)
+    for k in (1, 5, 20, 50, 200):
+        r.set_lights(lights, per_pass=k)
+        t = frame_time(r, 3)
+        rows.append([k, round(t * 1000, 1), -(-200 // k), round(t * -(-200 // k), 2)])
+    out.append(
+        table(
+            ["K lights per redraw (400×300)", "ms per frame", "frames to N=200", "s to converge"],
+            rows,
+        )
+    )
+
+    rows = []
+    for texels in (4, 8, 16):
+        btf = tabulate(woven(texels=texels, fine_per_texel=4))
+        s = Scene(scene.meshes[:1], [Material(btf, uv_scale=2.0)], scene.camera, scene.environment)
+        rr = GLSLRenderer(s, w, h)
+        rr.set_lights(lights, per_pass=5)
+        rows.append(
+            [f"{texels}×{texels}", btf.data.nbytes // 1024, round(frame_time(rr, 3) * 1000, 1)]
+        )
+        rr.release()
+    out.append(table(["dense BTF texels (81×81 dirs)", "table KiB", "ms per frame (K=5)"], rows))
+    return "\n\n".join(out)
+
+
+if __name__ == "__main__":
+    print(main())
