@@ -4,7 +4,7 @@
 Scene: a 96×48 UV sphere with the measured alu BTF (or a tabulated woven preset where the shared
 data is absent) on a ground plane with the wallpaper BTF, forest studiolight. Frame = one
 accumulation pass of K lights plus the resolve. Error: relative RMSE against the same view lit by
-4096 virtual lights (the converged image).
+1024 virtual lights (a converged image).
 """
 
 from __future__ import annotations
@@ -67,26 +67,27 @@ def main() -> str:
     for w, h in ((800, 600), (1920, 1080)):
         r = GLSLRenderer(scene, w, h)
         r.set_lights(scene.environment.virtual_lights(200), per_pass=5)
-        t = frame_time(r, 5)
-        r.restart()
-        t0 = time.perf_counter()
-        while r.render_pass():
-            pass
-        r.resolve()
-        converge = time.perf_counter() - t0
-        rows.append([f"{w}×{h}", round(t * 1000, 1), round(1 / t, 2), round(converge, 2)])
+        t = frame_time(r, 3)
+        converge = "-"
+        if w * h <= 800 * 600:  # 40 frames at 1080p take minutes on a software rasteriser
+            r.restart()
+            t0 = time.perf_counter()
+            while r.render_pass():
+                r.resolve()  # a viewport shows every intermediate frame
+            converge = round(time.perf_counter() - t0, 2)
+        rows.append([f"{w}×{h}", round(t * 1000, 1), round(1 / t, 2), converge])
         r.release()
     out.append(table(["resolution", "ms per frame (K=5)", "FPS", "s until 200 lights in"], rows))
 
-    w, h = 400, 300
+    w, h = 200, 150
     r = GLSLRenderer(scene, w, h)
-    reference = r.render(scene.environment.virtual_lights(4096, seed=7), per_pass=256)
+    reference = r.render(scene.environment.virtual_lights(1024, seed=7), per_pass=128)
     rows = []
-    for n in (25, 50, 100, 200, 1000):
+    for n in (5, 25, 50, 100, 200):
         t0 = time.perf_counter()
         image = r.render(scene.environment.virtual_lights(n), per_pass=n)
         rows.append([n, round(time.perf_counter() - t0, 3), round(rel_rmse(image, reference), 4)])
-    out.append(table(["N lights (one pass, 400×300)", "s", "relative RMSE vs 4096"], rows))
+    out.append(table(["N lights (one pass, 200×150)", "s", "relative RMSE vs 1024"], rows))
 
     rows = []
     lights = scene.environment.virtual_lights(200)
@@ -96,7 +97,7 @@ def main() -> str:
         rows.append([k, round(t * 1000, 1), -(-200 // k), round(t * -(-200 // k), 2)])
     out.append(
         table(
-            ["K lights per redraw (400×300)", "ms per frame", "frames to N=200", "s to converge"],
+            ["K lights per redraw (200×150)", "ms per frame", "frames to N=200", "s to converge"],
             rows,
         )
     )

@@ -98,8 +98,8 @@ def render_glsl(engine, exported, scene, w: int, h: int) -> None:
         engine.report({"ERROR"}, str(exc))
         return
     cam = exported.camera
-    clip_from_world = cam.projection(w / h) @ np.linalg.inv(cam.world_from_camera)
-    camera = [*cam.position, 1.0] if cam.perspective else [*cam.world_from_camera[:3, 2], 0.0]
+    clip_from_world = cam.clip_from_world(w / h)
+    camera = cam.shader_vector()
     drawer.set_lights(frame_lights(scene.btf_render, exported, cam.world_from_camera[:3, 2]), BATCH)
     engine.update_stats("", f"BTF | {len(exported.meshes)} meshes, {drawer.state.total} lights")
 

@@ -115,8 +115,7 @@ class CLRenderer:
         cl = self.cl
         w, h = self.width, self.height
         cam = self.scene.camera
-        clip_from_world = cam.projection(w / h) @ np.linalg.inv(cam.world_from_camera)
-        world_from_clip = np.linalg.inv(clip_from_world).astype(np.float32)
+        world_from_clip = np.linalg.inv(cam.clip_from_world(w / h)).astype(np.float32)
         axis = -cam.world_from_camera[:3, 2]
         forward = np.array([*axis, -float(axis @ cam.position)], dtype=np.float32)
         light_data = np.zeros((len(lights.pdf), 8), dtype=np.float32)

@@ -78,14 +78,7 @@ class GLSLRenderer:
     # --- drawing ------------------------------------------------------------------------------
     def _camera_uniforms(self):
         cam = self.scene.camera
-        clip_from_world = cam.projection(self.width / self.height) @ np.linalg.inv(
-            cam.world_from_camera
-        )
-        if cam.perspective:
-            camera = np.array([*cam.position, 1.0], dtype=np.float32)
-        else:
-            camera = np.array([*cam.world_from_camera[:3, 2], 0.0], dtype=np.float32)
-        return clip_from_world, camera
+        return cam.clip_from_world(self.width / self.height), cam.shader_vector()
 
     def restart(self) -> None:
         """Clear the accumulation and draw the depth pre-pass and the World."""

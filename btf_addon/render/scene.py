@@ -122,6 +122,16 @@ class Camera:
     def position(self) -> np.ndarray:
         return self.world_from_camera[:3, 3]
 
+    def clip_from_world(self, aspect: float) -> np.ndarray:
+        return self.projection(aspect) @ np.linalg.inv(self.world_from_camera)
+
+    def shader_vector(self) -> np.ndarray:
+        """What the surface shaders call ``camera``: (position, 1) for perspective views, or
+        (direction towards the viewer, 0) for orthographic ones."""
+        if self.perspective:
+            return np.array([*self.position, 1.0], dtype=np.float32)
+        return np.array([*self.world_from_camera[:3, 2], 0.0], dtype=np.float32)
+
 
 @dataclass
 class Scene:
