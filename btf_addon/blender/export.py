@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import bpy
@@ -29,6 +30,7 @@ log = logging.getLogger(__name__)
 
 # Loading a BTF is costly (text tables, checksums): keep them by absolute path and mtime.
 _btf_cache: dict[tuple[str, float], BTF] = {}
+_fallback_cache: dict[tuple[float, ...], BTF] = {}
 
 
 def load_cached(path: str) -> BTF:
@@ -67,11 +69,15 @@ def export_material(material, messages: list[str]) -> tuple[Material, str]:
             except (BTFError, OSError) as exc:
                 messages.append(f"material {material.name!r}: {exc}")
     name = material.name if material is not None else "default"
-    return Material(LambertianBTF(_fallback_colour(material)), name=name), ""
+    colour = tuple(round(float(c), 6) for c in _fallback_colour(material))
+    if colour not in _fallback_cache:  # one BTF object per colour: its GPU upload is reused
+        _fallback_cache[colour] = LambertianBTF(colour)
+    return Material(_fallback_cache[colour], name=name), ""
 
 
-def export_mesh(obj, matrix_world, slot_materials, messages: list[str]) -> list[Mesh]:
-    """One Mesh per material slot in use. slot_materials[i] = (material index, UV map name)."""
+def export_mesh(obj, slot_uv_names: list[str], messages: list[str]) -> list[Mesh]:
+    """One object-space Mesh per material slot in use; ``Mesh.material`` is the slot index
+    (export_scene maps it to the scene's material list and sets the world matrix)."""
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -85,6 +91,7 @@ def export_mesh(obj, matrix_world, slot_materials, messages: list[str]) -> list[
         tris.foreach_get("vertices", verts)
         slots = np.empty(n_tris, dtype=np.int64)
         tris.foreach_get("material_index", slots)
+        slots = np.clip(slots, 0, len(slot_uv_names) - 1)
         co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
         mesh.vertices.foreach_get("co", co)
         positions = co.reshape(-1, 3)[verts]
@@ -92,22 +99,11 @@ def export_mesh(obj, matrix_world, slot_materials, messages: list[str]) -> list[
         mesh.corner_normals.foreach_get("vector", corner_normals)
         normals = corner_normals.reshape(-1, 3)[loops]
         out = []
-        for slot in np.unique(np.clip(slots, 0, len(slot_materials) - 1)):
-            material_index, uv_name = slot_materials[slot]
-            uvs = _corner_uvs(obj, mesh, loops, uv_name, messages)
-            corners = np.repeat(np.clip(slots, 0, len(slot_materials) - 1) == slot, 3)
+        for slot in np.unique(slots):
+            uvs = _corner_uvs(obj, mesh, loops, slot_uv_names[slot], messages)
+            corners = np.repeat(slots == slot, 3)
             p, n, uv = positions[corners], normals[corners], uvs[corners]
-            out.append(
-                Mesh(
-                    p,
-                    n,
-                    uv,
-                    corner_tangents(p, n, uv),
-                    np.array(matrix_world, dtype=np.float64),
-                    material_index,
-                    obj.name,
-                )
-            )
+            out.append(Mesh(p, n, uv, corner_tangents(p, n, uv), np.eye(4), int(slot), obj.name))
         return out
     finally:
         obj.to_mesh_clear()
@@ -177,8 +173,28 @@ def export_camera(scene, width: int, height: int) -> Camera:
     )
 
 
-def export_scene(depsgraph, width: int, height: int) -> Scene:
+@dataclass
+class ExportCache:
+    """What earlier exports produced, so that a viewport re-exports only what changed.
+
+    Meshes are kept in object space per object name (with the material names of their slots);
+    world matrices and the material list are rebuilt on every export, which is cheap."""
+
+    meshes: dict[str, tuple[list[Mesh], list[str], list[str]]] = field(default_factory=dict)
+    environment: tuple[str, object, list[str]] | None = None
+
+    def invalidate(self, objects=(), materials=(), world: bool = False) -> None:
+        materials = set(materials)
+        for name in list(self.meshes):
+            if name in objects or materials.intersection(self.meshes[name][1]):
+                del self.meshes[name]  # a material's UV map choice changes the exported UVs
+        if world:
+            self.environment = None
+
+
+def export_scene(depsgraph, width: int, height: int, cache: ExportCache | None = None) -> Scene:
     scene = depsgraph.scene
+    cache = cache if cache is not None else ExportCache()
     messages: list[str] = []
     materials: list[Material] = []
     material_ids: dict[str, tuple[int, str]] = {}
@@ -187,7 +203,7 @@ def export_scene(depsgraph, width: int, height: int) -> Scene:
         obj = inst.object
         if obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
             continue
-        slot_materials = []
+        slot_ids, slot_names = [], []
         for slot in obj.material_slots or [None]:
             material = slot.material if slot is not None else None
             key = material.name if material is not None else ""
@@ -195,8 +211,40 @@ def export_scene(depsgraph, width: int, height: int) -> Scene:
                 exported, uv_name = export_material(material, messages)
                 material_ids[key] = (len(materials), uv_name)
                 materials.append(exported)
-            slot_materials.append(material_ids[key])
-        meshes += export_mesh(obj, inst.matrix_world, slot_materials, messages)
-    env, env_messages = environment_from_world(scene.world)
+            slot_ids.append(material_ids[key])
+            slot_names.append(key)
+        name = obj.original.name if obj.original is not None else obj.name
+        if name not in cache.meshes:
+            object_messages: list[str] = []
+            exported_meshes = export_mesh(obj, [uv for _, uv in slot_ids], object_messages)
+            cache.meshes[name] = (exported_meshes, slot_names, object_messages)
+        cached, _, object_messages = cache.meshes[name]
+        messages += [m for m in object_messages if m not in messages]
+        world = np.array(inst.matrix_world, dtype=np.float64)
+        for mesh in cached:
+            meshes.append(
+                replace(mesh, world_from_object=world, material=slot_ids[mesh.material][0])
+            )
+    world_name = scene.world.name if scene.world is not None else ""
+    if cache.environment is None or cache.environment[0] != world_name:
+        env, env_messages = environment_from_world(scene.world)
+        cache.environment = (world_name, env, env_messages)
+    _, env, env_messages = cache.environment
     messages += env_messages
     return Scene(meshes, materials, export_camera(scene, width, height), env, messages)
+
+
+def changed_ids(depsgraph) -> tuple[set[str], set[str], bool]:
+    """(objects whose geometry changed, materials changed, World changed) from the depsgraph's
+    updates. Transform-only changes need no re-export: world matrices are applied per export."""
+    objects, materials, world = set(), set(), False
+    for update in depsgraph.updates:
+        datablock = update.id
+        if isinstance(datablock, bpy.types.Object):
+            if update.is_updated_geometry or update.is_updated_shading:
+                objects.add(datablock.original.name if datablock.original else datablock.name)
+        elif isinstance(datablock, bpy.types.Material):
+            materials.add(datablock.name)
+        elif isinstance(datablock, bpy.types.World | bpy.types.Image):
+            world = True
+    return objects, materials, world

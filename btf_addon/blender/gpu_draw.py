@@ -58,42 +58,73 @@ def _matrix(m: np.ndarray):
 
 
 class SceneDrawer:
-    """GPU resources for one exported scene; ``draw_*`` calls need an active framebuffer."""
+    """GPU resources for one exported scene; ``draw_*`` calls need an active framebuffer.
 
-    def __init__(self, scene: Scene):
+    Built from a ``previous`` drawer, it keeps every upload whose source did not change: BTF
+    tables per BTF object (the exporter caches BTFs by file and fallback colour), vertex buffers
+    per mesh (same object-space arrays and world matrix), the environment per Environment
+    object. So a viewport edit re-uploads only what the depsgraph reported as changed."""
+
+    def __init__(self, scene: Scene, previous: SceneDrawer | None = None):
         self.scene = scene
         self.surface = shader(SURFACE_SHADER)
         self.background_shader = shader(BACKGROUND_SHADER)
         self.resolve_shader = shader(RESOLVE_SHADER)
+        old_tables = previous._table_uploads if previous else {}
+        old_batches = previous._batch_uploads if previous else {}
+        # Keyed by id() of the source, with the source kept alive so an id cannot be reused.
+        self._table_uploads: dict[int, tuple[object, tuple]] = {}
+        self._batch_uploads: dict[tuple, tuple[object, object]] = {}
         self.tables = []
         for material in scene.materials:
-            packed = pack(material.btf)
-            self.tables.append((texture(packed.ints, "R32F"), texture(packed.floats, "R32F")))
+            key = id(material.btf)
+            if key not in self._table_uploads:
+                if key in old_tables:
+                    self._table_uploads[key] = old_tables[key]
+                else:
+                    packed = pack(material.btf)
+                    textures = (texture(packed.ints, "R32F"), texture(packed.floats, "R32F"))
+                    self._table_uploads[key] = (material.btf, textures)
+            self.tables.append(self._table_uploads[key][1])
         self.batches = []
         for mesh in scene.meshes:
-            data = mesh.world_space_corners()
-            if len(data) == 0:
-                continue
-            batch = batch_for_shader(
-                self.surface,
-                "TRIS",
-                {
-                    "pos": data[:, 0:3],
-                    "nor": data[:, 3:6],
-                    "uv": data[:, 6:8],
-                    "tan": data[:, 8:12],
-                },
-            )
-            self.batches.append((batch, mesh.material))
+            key = (id(mesh.positions), np.asarray(mesh.world_from_object).tobytes())
+            if key not in self._batch_uploads:
+                self._batch_uploads[key] = old_batches.get(key) or (
+                    mesh.positions,
+                    self._batch(mesh),
+                )
+            batch = self._batch_uploads[key][1]
+            if batch is not None:
+                self.batches.append((batch, mesh.material))
         env = scene.environment
-        rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
-        # Rows go up top first: texture coordinate t = 0 is the first row uploaded, and the
-        # shader reads t = 0 as the zenith (shaders/env_lib.glsl), as the moderngl renderer does.
-        self.env_tex = texture(rgba, "RGBA32F")
+        if previous is not None and previous.scene.environment is env:
+            self.env_tex = previous.env_tex
+        else:
+            rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
+            # Rows go up top first: texture coordinate t = 0 is the first row uploaded, and the
+            # shader reads t = 0 as the zenith (shaders/env_lib.glsl), as moderngl's renderer.
+            self.env_tex = texture(rgba, "RGBA32F")
+        self.uploads = {
+            "tables": len(set(self._table_uploads) - set(old_tables)),
+            "meshes": len(set(self._batch_uploads) - set(old_batches)),
+        }
         self.quad_bg = batch_for_shader(self.background_shader, "TRIS", {"pos": QUAD})
         self.quad_resolve = batch_for_shader(self.resolve_shader, "TRIS", {"pos": QUAD})
         self.lights_tex = None
         self.state: ProgressiveState | None = None
+
+    def _batch(self, mesh):
+        data = mesh.world_space_corners()
+        if len(data) == 0:
+            return None
+        attributes = {
+            "pos": data[:, 0:3],
+            "nor": data[:, 3:6],
+            "uv": data[:, 6:8],
+            "tan": data[:, 8:12],
+        }
+        return batch_for_shader(self.surface, "TRIS", attributes)
 
     def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
         n = len(lights.pdf)

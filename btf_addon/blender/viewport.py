@@ -13,7 +13,7 @@ from gpu_extras.presets import draw_texture_2d
 
 from ..core.errors import BTFError
 from ..gl.interface import ShaderCompileError
-from .export import export_scene
+from .export import ExportCache, changed_ids, export_scene
 from .gpu_draw import SceneDrawer
 from .lighting import frame_lights
 
@@ -21,6 +21,7 @@ from .lighting import frame_lights
 class ViewportState:
     def __init__(self):
         self.drawer: SceneDrawer | None = None
+        self.cache = ExportCache()
         self.scene_dirty = True
         self.view_key: tuple | None = None
         self.size: tuple[int, int] = (0, 0)
@@ -41,9 +42,12 @@ def _state(engine) -> ViewportState:
 
 
 def view_update(engine, context, depsgraph) -> None:
+    """Record what changed: the next draw re-exports and re-uploads only that (ExportCache,
+    SceneDrawer(previous=...)); anything else (transforms, settings, added objects) is cheap
+    and handled by the re-export, which also restarts the accumulation."""
     state = _state(engine)
-    # Geometry, transforms, materials, the World and our settings all invalidate the export;
-    # the first update after creation carries no updates but the export is still pending.
+    objects, materials, world = changed_ids(depsgraph)
+    state.cache.invalidate(objects, materials, world)
     if any(True for _ in depsgraph.updates):
         state.scene_dirty = True
 
@@ -56,7 +60,8 @@ def view_draw(engine, context, depsgraph) -> None:
     size = (region.width, region.height)
     if state.scene_dirty or state.drawer is None:
         try:
-            state.drawer = SceneDrawer(export_scene(depsgraph, *size))
+            scene_data = export_scene(depsgraph, *size, cache=state.cache)
+            state.drawer = SceneDrawer(scene_data, previous=state.drawer)
             state.error = ""
         except (BTFError, ShaderCompileError) as exc:
             state.drawer, state.error = None, str(exc)
