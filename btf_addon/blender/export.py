@@ -192,7 +192,11 @@ class ExportCache:
             self.environment = None
 
 
-def export_scene(depsgraph, width: int, height: int, cache: ExportCache | None = None) -> Scene:
+def export_scene(
+    depsgraph, width: int, height: int, cache: ExportCache | None = None, viewport: bool = False
+) -> Scene:
+    """The evaluated scene as plain arrays. ``viewport``: the view comes from the 3D view's own
+    matrices, so a scene without a camera is fine (a placeholder camera is exported)."""
     scene = depsgraph.scene
     cache = cache if cache is not None else ExportCache()
     messages: list[str] = []
@@ -231,7 +235,11 @@ def export_scene(depsgraph, width: int, height: int, cache: ExportCache | None =
         cache.environment = (world_name, env, env_messages)
     _, env, env_messages = cache.environment
     messages += env_messages
-    return Scene(meshes, materials, export_camera(scene, width, height), env, messages)
+    if viewport and scene.camera is None:
+        camera = Camera(np.eye(4))
+    else:
+        camera = export_camera(scene, width, height)
+    return Scene(meshes, materials, camera, env, messages)
 
 
 def changed_ids(depsgraph) -> tuple[set[str], set[str], bool]:

@@ -60,7 +60,7 @@ def view_draw(engine, context, depsgraph) -> None:
     size = (region.width, region.height)
     if state.scene_dirty or state.drawer is None:
         try:
-            scene_data = export_scene(depsgraph, *size, cache=state.cache)
+            scene_data = export_scene(depsgraph, *size, cache=state.cache, viewport=True)
             state.drawer = SceneDrawer(scene_data, previous=state.drawer)
             state.error = ""
         except (BTFError, ShaderCompileError) as exc:
