@@ -58,7 +58,13 @@ def render(engine, depsgraph) -> None:
         engine.update_progress(fraction)
         return not engine.test_break()
 
-    passes = renderer.render_direct(lights, progress)
+    settings = scene.btf_render
+    if settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT":
+        # Depth, normal and UV come from the deterministic kernel with one light (cheap).
+        passes = renderer.render_direct(lights.prefix(1))
+        passes.combined = renderer.render_sampled(settings.samples, settings.seed, progress)
+    else:
+        passes = renderer.render_direct(lights, progress)
     view_layer = depsgraph.view_layer
     for enabled, name, channels, chan_id in (
         (view_layer.use_pass_z, "Depth", 1, "Z"),

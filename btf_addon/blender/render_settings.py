@@ -35,6 +35,33 @@ class BTFRenderSettings(PropertyGroup):
         ],
         default="ENVIRONMENT",
     )
+    final_mode: EnumProperty(
+        name="Final Render",
+        items=[
+            (
+                "VIRTUAL",
+                "Virtual Lights",
+                "Deterministic: exactly the N virtual lights, as the "
+                "viewport (no noise, an approximation of the World)",
+                0,
+            ),
+            (
+                "SAMPLED",
+                "Sampled",
+                "Monte Carlo: the World sampled continuously with MIS "
+                "(noise that falls with the samples, no approximation)",
+                1,
+            ),
+        ],
+        default="VIRTUAL",
+    )
+    samples: IntProperty(
+        name="Samples",
+        default=64,
+        min=1,
+        max=65536,
+        description="Samples per pixel of the Sampled final render",
+    )
     seed: IntProperty(
         name="Seed",
         default=0,

@@ -57,10 +57,10 @@ class BTF_PT_render_settings(Panel):
         row = layout.row()
         row.active = settings.progressive
         row.prop(settings, "lights_per_redraw")
-        layout.label(
-            text="F12 renders direct lighting (no shadows) until the OpenCL tracer lands",
-            icon="INFO",
-        )
+        layout.prop(settings, "final_mode")
+        row = layout.row()
+        row.active = settings.final_mode == "SAMPLED"
+        row.prop(settings, "samples")
 
 
 classes = (BTF_PT_material, BTF_PT_render_settings)

@@ -52,11 +52,17 @@ class CLRenderer:
             cl_context.context, cl_context.device, "render_direct.cl", self.features.defines()
         )
         self.kernel = cl.Kernel(program, "render_direct")
+        self.kernel_mis = cl.Kernel(program, "render_env_mis")
         self._upload_geometry()
         self._upload_materials()
         env = scene.environment
         rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
         self.env = self._buffer(rgba.ravel(), np.float32)
+        # The environment's sampling tables, exactly those of core/envmap.py.
+        self.env_tables = [
+            self._buffer(a.ravel(), np.float32)
+            for a in (env.row_cdf, env.col_cdf, env.row_pdf, env.col_pdf)
+        ]
 
     def _buffer(self, array, dtype):
         mf = self.cl.mem_flags
@@ -174,3 +180,52 @@ class CLRenderer:
             if progress is not None and not progress((row0 + band) / h):
                 break
         return passes
+
+    def render_sampled(
+        self, samples: int, seed: int = 0, progress: Callable[[float], bool] | None = None
+    ) -> np.ndarray:
+        """(h, w, 4) Combined by Monte Carlo: ``samples`` per pixel, each one environment sample
+        and one cosine sample with MIS (power heuristic). Converges to the lighting integral."""
+        cl = self.cl
+        w, h = self.width, self.height
+        cam = self.scene.camera
+        wfc = self._buffer(np.linalg.inv(cam.clip_from_world(w / h)).ravel(), np.float32)
+        env = self.scene.environment
+        image = np.zeros((h, w, 4), np.float32)
+        rows = max(1, min(h, BAND_PIXELS // w))
+        out = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, rows * w * 16)
+        for row0 in range(0, h, rows):
+            band = min(rows, h - row0)
+            self.kernel_mis(
+                self.ctx.queue,
+                (w, band),
+                None,
+                np.int32(w),
+                np.int32(h),
+                np.int32(row0),
+                wfc,
+                np.int32(self.triangle_count),
+                self.bounds,
+                self.links,
+                self.corners,
+                self.tri_material,
+                self.ints,
+                self.floats,
+                self.material_offsets,
+                self.material_params,
+                self.eps,
+                self.env,
+                np.int32(env.width),
+                np.int32(env.height),
+                np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
+                *self.env_tables,
+                np.int32(samples),
+                np.uint32(seed),
+                out,
+            )
+            host = np.empty(band * w * 4, dtype=np.float32)
+            cl.enqueue_copy(self.ctx.queue, host, out)
+            image[row0 : row0 + band] = host.reshape(band, w, 4)
+            if progress is not None and not progress((row0 + band) / h):
+                break
+        return image

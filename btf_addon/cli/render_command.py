@@ -36,14 +36,16 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--lighting",
         default="virtual:256",
-        metavar="virtual:N",
-        help="environment light: N importance-sampled virtual lights (default 256)",
+        metavar="virtual:N|envmap",
+        help="virtual:N — N importance-sampled virtual lights (deterministic, default 256); "
+        "envmap — the World sampled continuously with MIS, --samples per pixel (opencl only)",
     )
     p.add_argument(
         "--samples",
         type=int,
         default=None,
-        help="for the glsl engine, lights per accumulation pass (default: all)",
+        help="envmap lighting: samples per pixel (default 64); glsl engine: lights per "
+        "accumulation pass (default: all)",
     )
     p.set_defaults(func=cmd_render)
 
@@ -60,10 +62,13 @@ def _parse_resolution(text: str | None) -> tuple[int, int] | None:
     return w, h
 
 
-def _parse_lighting(text: str) -> int:
+def _parse_lighting(text: str) -> int | None:
+    """N for virtual:N, None for envmap (continuous sampling)."""
+    if text == "envmap":
+        return None
     kind, _, count = text.partition(":")
     if kind != "virtual" or not count.isdigit() or int(count) < 1:
-        raise BTFError(f"--lighting must be virtual:N with N ≥ 1, got {text!r}")
+        raise BTFError(f"--lighting must be virtual:N with N ≥ 1 or envmap, got {text!r}")
     return int(count)
 
 
@@ -107,7 +112,11 @@ def cmd_render(args) -> int:
     for message in render_scene.messages:
         print(f"warning: {message}", file=sys.stderr)
     t_export = time.perf_counter()
-    lights = render_scene.environment.virtual_lights(n_lights)
+    if n_lights is None and args.engine == "glsl":
+        raise BTFError(
+            "--lighting envmap needs the opencl engine (the viewport uses virtual lights)"
+        )
+    lights = render_scene.environment.virtual_lights(n_lights or 1)
     image = _render(args, render_scene, width, height, lights)
     t_render = time.perf_counter()
     if suffix == ".exr":
@@ -115,7 +124,7 @@ def cmd_render(args) -> int:
     else:
         write_png(args.output, srgb8_from_linear(image))
     print(
-        f"rendered {width}x{height} with {n_lights} virtual lights: scene export "
+        f"rendered {width}x{height} with {_lighting_label(args, n_lights)}: scene export "
         f"{t_export - t0:.2f} s, {args.engine} render {t_render - t_export:.2f} s -> {args.output}"
     )
     if not np.all(np.isfinite(image)):
@@ -139,4 +148,12 @@ def _render(args, scene, width: int, height: int, lights) -> np.ndarray:
         renderer = CLRenderer(scene, width, height, create_context(args.device))
     except (OpenCLUnavailableError, RuntimeError) as exc:
         raise BTFError(f"OpenCL final render unavailable ({exc}); try --engine glsl") from None
+    if args.lighting == "envmap":
+        return renderer.render_sampled(args.samples or 64, seed=0)[..., :3]
     return renderer.render_direct(lights).combined[..., :3]
+
+
+def _lighting_label(args, n_lights: int | None) -> str:
+    if n_lights is None:
+        return f"the environment sampled, {args.samples or 64} samples per pixel"
+    return f"{n_lights} virtual lights"

@@ -39,6 +39,10 @@ class VirtualLights:
     radiance: np.ndarray
     pdf: np.ndarray
 
+    def prefix(self, k: int) -> VirtualLights:
+        """The first k lights: itself a stratified estimate."""
+        return VirtualLights(self.direction[:k], self.radiance[:k], self.pdf[:k])
+
     def weights(self, k: int | None = None) -> np.ndarray:
         """(k, 3) irradiance carried by each of the first k lights: L_i / (pdf_i · k)."""
         k = len(self.pdf) if k is None else k

@@ -166,3 +166,19 @@ def test_f12_with_passes_enabled(bpy_module, fresh_scene, tmp_path):
     layer.use_pass_z = layer.use_pass_normal = layer.use_pass_uv = True
     bpy_module.ops.render.render(write_still=True)
     assert read_exr(tmp_path / "f12.exr")[32, 48].max() > 0.05
+
+
+def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
+    """Final render in the Monte Carlo mode: same scene, converging to the virtual-light image."""
+    from btf_addon.core.analytic import LambertianBTF
+
+    write_container(tmp_path / "white.btfm", LambertianBTF(0.7))
+    scene = build_scene(bpy_module, tmp_path, tmp_path / "white.btfm")
+    scene.btf_render.lights_total = 512
+    bpy_module.ops.render.render(write_still=True)
+    virtual = read_exr(tmp_path / "f12.exr")
+    scene.btf_render.final_mode = "SAMPLED"
+    scene.btf_render.samples = 256
+    bpy_module.ops.render.render(write_still=True)
+    sampled = read_exr(tmp_path / "f12.exr")
+    np.testing.assert_allclose(sampled.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.02)

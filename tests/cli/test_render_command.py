@@ -145,3 +145,25 @@ def test_render_errors_are_clear(tmp_path):
 def test_missing_blend(tmp_path, missing):
     proc = run_cli("render", "--blend", tmp_path / missing, "-o", tmp_path / "x.png", check=False)
     assert proc.returncode == 2 and "no such .blend" in proc.stderr
+
+
+def test_envmap_lighting_renders_by_sampling(tmp_path):
+    out = tmp_path / "s.exr"
+    proc = run_cli(
+        "render",
+        "--demo",
+        "-o",
+        out,
+        "--resolution",
+        "48x27",
+        "--lighting",
+        "envmap",
+        "--samples",
+        "8",
+    )
+    assert "sampled, 8 samples per pixel" in proc.stdout
+    assert np.all(np.isfinite(read_exr(out)))
+    proc = run_cli(
+        "render", "--demo", "-o", out, "--lighting", "envmap", "--engine", "glsl", check=False
+    )
+    assert proc.returncode == 2 and "needs the opencl engine" in proc.stderr

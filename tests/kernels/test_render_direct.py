@@ -154,3 +154,18 @@ def test_scene_scale_does_not_change_the_image(cl_context, rng, scale):
     base = CLRenderer(scaled(1.0), 48, 36, cl_context).render_direct(lights).combined
     other = CLRenderer(scaled(scale), 48, 36, cl_context).render_direct(lights).combined
     assert rel_rmse(other, base) < 0.01
+
+
+def test_monte_carlo_mode_converges_to_the_virtual_light_integral(cl_context, rng):
+    """The MIS estimator (environment + cosine sampling) and many virtual lights estimate the
+    same integral: with 2048 samples the mean over the sphere agrees to 0.5% and the per-pixel
+    noise is small (measured 1.1% relative RMSE against 8192 lights)."""
+    from btf_addon.cl.renderer import CLRenderer
+
+    env = Environment(rng.gamma(0.6, 1.0, size=(32, 64, 3)), rotation_z_rad=0.4)
+    scene = sphere_scene(GGXBTF((0.8, 0.7, 0.6), 0.6), env)
+    renderer = CLRenderer(scene, 48, 36, cl_context)
+    sampled = renderer.render_sampled(2048, seed=5)[..., :3]
+    virtual = renderer.render_direct(env.virtual_lights(8192)).combined[..., :3]
+    assert rel_rmse(sampled, virtual) < 0.03
+    np.testing.assert_allclose(sampled.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.005)
