@@ -10,6 +10,7 @@
  * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands. */
 
 #include "btf_packed.h"
+#include "btf_surface.h"
 #include "btf_trace.h"
 
 #ifndef HAS_SHADOWS
@@ -37,10 +38,9 @@ inline float3 env_lookup(__global const float *env, int w, int h, float2 params,
 __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *world_from_clip, const float4 camera_forward,
                             const int tri_count, __global const float *bounds,
-                            __global const int *links,
-                            __global const float *corners, __global const int *tri_material,
-                            __global const float *ints, __global const float *floats,
-                            __global const int *material_offsets,
+                            __global const int *links, __global const float *corners,
+                            __global const int *tri_material, __global const float *ints,
+                            __global const float *floats, __global const int *material_offsets,
                             __global const float *material_params, __global const float *lights,
                             const int n_lights, const float eps, __global const float *env,
                             const int env_w, const int env_h, const float2 env_params,
@@ -53,15 +53,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
     return;
   }
   int px = yr * width + x; /* index inside this band's buffers */
-  float2 ndc = (float2)((x + 0.5f) / width * 2.0f - 1.0f, 1.0f - (y + 0.5f) / height * 2.0f);
-  float4 m0 = vload4(0, world_from_clip), m1 = vload4(1, world_from_clip);
-  float4 m2 = vload4(2, world_from_clip), m3 = vload4(3, world_from_clip); /* rows */
-  float4 pn = (float4)(ndc, -1.0f, 1.0f), pf = (float4)(ndc, 1.0f, 1.0f);
-  float4 near = (float4)(dot(m0, pn), dot(m1, pn), dot(m2, pn), dot(m3, pn));
-  float4 far = (float4)(dot(m0, pf), dot(m1, pf), dot(m2, pf), dot(m3, pf));
-  float3 o = near.xyz / near.w;
-  float3 d = normalize(far.xyz / far.w - o);
-
+  float3 o, d;
+  camera_ray(x, y, width, height, world_from_clip, &o, &d);
   float t = 0.0f, bu = 0.0f, bv = 0.0f;
   int tri = tri_count > 0 ? trace(o, d, 0.0f, INFINITY, bounds, links, corners, false, &t, &bu, &bv)
                           : -1;
@@ -72,64 +65,34 @@ __kernel void render_direct(const int width, const int height, const int row0,
     vstore2((float2)(0.0f), px, uv_out);
     return;
   }
-  __global const float *c = corners + 36 * tri;
-  float w0 = 1.0f - bu - bv;
-  float3 p = o + t * d;
-  /* Shadow rays start from the point lifted onto the surface that the smooth normals describe
-   * (Hanika 2021, "Hacking the shadow terminator"): on tessellated smooth meshes this stops
-   * faces from shadowing their neighbours near the terminator. */
-  float3 lifted = (float3)(0.0f);
-  for (int k = 0; k < 3; k++) {
-    float3 pk = vload3(0, c + 12 * k), nk = normalize(vload3(0, c + 12 * k + 3));
-    float3 tmp = p - pk;
-    tmp -= fmin(dot(tmp, nk), 0.0f) * nk;
-    lifted += (k == 0 ? w0 : (k == 1 ? bu : bv)) * (pk + tmp);
-  }
-  /* Corner k at c + 12k: position [0, 3), normal [3, 6), uv [6, 8), tangent + sign [8, 12). */
-  float3 n = normalize(w0 * vload3(0, c + 3) + bu * vload3(0, c + 15) + bv * vload3(0, c + 27));
-  float2 uv = w0 * vload2(0, c + 6) + bu * vload2(0, c + 18) + bv * vload2(0, c + 30);
-  float4 tg = w0 * vload4(0, c + 8) + bu * vload4(0, c + 20) + bv * vload4(0, c + 32);
-  float3 wo_world = -d;
-  float side = dot(n, wo_world) < 0.0f ? -1.0f : 1.0f; /* back faces shaded as seen */
-  n *= side;
-  float3 tt = tg.xyz - n * dot(n, tg.xyz);
-  float tl = length(tt);
-  tt = tl > 1e-8f ? tt / tl
-                  : normalize(cross(fabs(n.z) < 0.9f ? (float3)(0, 0, 1) : (float3)(1, 0, 0), n));
-  float3 b = cross(n, tt) * (c[11] < 0.0f ? -1.0f : 1.0f) * side;
-  float3 wo = (float3)(dot(wo_world, tt), dot(wo_world, b), dot(wo_world, n));
-  float2 view = btf_theta_phi_deg(wo);
-
-  int mat = tri_material[tri];
-  __global const float *I = ints + material_offsets[2 * mat];
-  __global const float *F = floats + material_offsets[2 * mat + 1];
-  __global const float *mp = material_params + 8 * mat;
-  float2 buv = (float2)(mp[0] * uv.x + mp[2] * uv.y, mp[1] * uv.x + mp[3] * uv.y);
+  SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
+                                  eps);
+  __global const float *I = ints + material_offsets[2 * sp.material];
+  __global const float *F = floats + material_offsets[2 * sp.material + 1];
   float3 sum = (float3)(0.0f);
-  if (wo.z > 0.0f) {
+  if (sp.wo.z > 0.0f) {
     for (int i = 0; i < n_lights; i++) {
       float3 dir = vload3(0, lights + 8 * i);
-      float3 wi = (float3)(dot(dir, tt), dot(dir, b), dot(dir, n));
+      float3 wi = to_frame(&sp, dir);
       if (wi.z <= 0.0f) {
         continue;
       }
 #if HAS_SHADOWS
       float ts, us, vs;
-      float3 start = (side > 0.0f ? lifted : p) + n * eps; /* lifting assumes the outer side */
-      if (trace(start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
+      if (trace(sp.start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
         continue;
       }
 #endif
       float2 light = btf_theta_phi_deg(wi);
-      sum += btf_evaluate(I, F, buv, wi, wo, light.x, light.y, view.x, view.y) *
+      sum += btf_evaluate(I, F, sp.btf_uv, wi, sp.wo, light.x, light.y, sp.view.x, sp.view.y) *
              vload3(0, lights + 8 * i + 4);
     }
   }
-  sum *= mp[4] / (float)max(n_lights, 1);
+  sum *= material_params[8 * sp.material + 4] / (float)max(n_lights, 1);
   vstore4((float4)(sum, 1.0f), px, combined);
-  depth[px] = dot(p, camera_forward.xyz) + camera_forward.w; /* distance along the camera axis */
-  vstore3(n, px, normal_out);
-  vstore2(uv, px, uv_out);
+  depth[px] = dot(sp.p, camera_forward.xyz) + camera_forward.w; /* distance along the camera axis */
+  vstore3(sp.n, px, normal_out);
+  vstore2(sp.uv, px, uv_out);
 }
 
 /* --- Monte Carlo environment lighting with MIS ----------------------------------------------
@@ -208,14 +171,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     return;
   }
   int px = yr * width + x;
-  float2 ndc = (float2)((x + 0.5f) / width * 2.0f - 1.0f, 1.0f - (y + 0.5f) / height * 2.0f);
-  float4 m0 = vload4(0, world_from_clip), m1 = vload4(1, world_from_clip);
-  float4 m2 = vload4(2, world_from_clip), m3 = vload4(3, world_from_clip);
-  float4 pn = (float4)(ndc, -1.0f, 1.0f), pf = (float4)(ndc, 1.0f, 1.0f);
-  float4 near = (float4)(dot(m0, pn), dot(m1, pn), dot(m2, pn), dot(m3, pn));
-  float4 far = (float4)(dot(m0, pf), dot(m1, pf), dot(m2, pf), dot(m3, pf));
-  float3 o = near.xyz / near.w;
-  float3 d = normalize(far.xyz / far.w - o);
+  float3 o, d;
+  camera_ray(x, y, width, height, world_from_clip, &o, &d);
   float t = 0.0f, bu = 0.0f, bv = 0.0f;
   int tri = tri_count > 0 ? trace(o, d, 0.0f, INFINITY, bounds, links, corners, false, &t, &bu, &bv)
                           : -1;
@@ -223,35 +180,14 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     vstore4((float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f), px, combined);
     return;
   }
-  __global const float *c = corners + 36 * tri;
-  float w0 = 1.0f - bu - bv;
-  float3 p = o + t * d;
-  float3 lifted = (float3)(0.0f);
-  for (int k = 0; k < 3; k++) {
-    float3 pk = vload3(0, c + 12 * k), nk = normalize(vload3(0, c + 12 * k + 3));
-    float3 tmp = p - pk;
-    tmp -= fmin(dot(tmp, nk), 0.0f) * nk;
-    lifted += (k == 0 ? w0 : (k == 1 ? bu : bv)) * (pk + tmp);
-  }
-  float3 n = normalize(w0 * vload3(0, c + 3) + bu * vload3(0, c + 15) + bv * vload3(0, c + 27));
-  float2 uv = w0 * vload2(0, c + 6) + bu * vload2(0, c + 18) + bv * vload2(0, c + 30);
-  float4 tg = w0 * vload4(0, c + 8) + bu * vload4(0, c + 20) + bv * vload4(0, c + 32);
-  float3 wo_world = -d;
-  float side = dot(n, wo_world) < 0.0f ? -1.0f : 1.0f;
-  n *= side;
-  float3 tt = tg.xyz - n * dot(n, tg.xyz);
-  float tl = length(tt);
-  tt = tl > 1e-8f ? tt / tl
-                  : normalize(cross(fabs(n.z) < 0.9f ? (float3)(0, 0, 1) : (float3)(1, 0, 0), n));
-  float3 b = cross(n, tt) * (c[11] < 0.0f ? -1.0f : 1.0f) * side;
-  float3 wo = (float3)(dot(wo_world, tt), dot(wo_world, b), dot(wo_world, n));
-  float2 view = btf_theta_phi_deg(wo);
-  int mat = tri_material[tri];
-  __global const float *I = ints + material_offsets[2 * mat];
-  __global const float *F = floats + material_offsets[2 * mat + 1];
-  __global const float *mp = material_params + 8 * mat;
-  float2 buv = (float2)(mp[0] * uv.x + mp[2] * uv.y, mp[1] * uv.x + mp[3] * uv.y);
-  float3 start = (side > 0.0f ? lifted : p) + n * eps;
+  SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
+                                  eps);
+  __global const float *I = ints + material_offsets[2 * sp.material];
+  __global const float *F = floats + material_offsets[2 * sp.material + 1];
+  float3 n = sp.n, tt = sp.t, b = sp.b, wo = sp.wo;
+  float2 view = sp.view, buv = sp.btf_uv;
+  float3 start = sp.start;
+  __global const float *mp = material_params + 8 * sp.material;
   float rotation = env_params.x;
   uint rng = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);

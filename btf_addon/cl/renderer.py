@@ -114,88 +114,104 @@ class CLRenderer:
         self.material_offsets = self._buffer(offsets, np.int32)
         self.material_params = self._buffer(np.array(params, dtype=np.float32).ravel(), np.float32)
 
+    def _scene_args(self) -> list:
+        """Kernel arguments shared by both modes, after the view: geometry and materials."""
+        return [
+            np.int32(self.triangle_count),
+            self.bounds,
+            self.links,
+            self.corners,
+            self.tri_material,
+            self.ints,
+            self.floats,
+            self.material_offsets,
+            self.material_params,
+        ]
+
+    def _env_args(self) -> list:
+        env = self.scene.environment
+        return [
+            self.env,
+            np.int32(env.width),
+            np.int32(env.height),
+            np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
+        ]
+
+    def _world_from_clip(self):
+        cam = self.scene.camera
+        world_from_clip = np.linalg.inv(cam.clip_from_world(self.width / self.height))
+        return self._buffer(world_from_clip.ravel(), np.float32)
+
+    def _run_bands(self, launch, channels: tuple[int, ...], progress) -> list[np.ndarray]:
+        """Render row bands: ``launch(row0, band, buffers)`` enqueues the kernel writing one
+        buffer per entry of ``channels``; returns (h, w, k) arrays. ``progress`` returning False
+        stops between bands (the remaining rows stay black)."""
+        cl = self.cl
+        w, h = self.width, self.height
+        rows = max(1, min(h, BAND_PIXELS // w))
+        mf = cl.mem_flags
+        buffers = [cl.Buffer(self.ctx.context, mf.WRITE_ONLY, rows * w * 4 * k) for k in channels]
+        images = [np.zeros((h, w, k), np.float32) for k in channels]
+        for row0 in range(0, h, rows):
+            band = min(rows, h - row0)
+            launch(row0, band, buffers)
+            for buf, image in zip(buffers, images, strict=True):
+                host = np.empty((band, w, image.shape[2]), dtype=np.float32)
+                cl.enqueue_copy(self.ctx.queue, host, buf)
+                image[row0 : row0 + band] = host
+            if progress is not None and not progress((row0 + band) / h):
+                break
+        return images
+
     def render_direct(
         self, lights: VirtualLights, progress: Callable[[float], bool] | None = None
     ) -> RenderPasses:
-        """All passes; ``progress(fraction)`` returning False stops early (rows left black)."""
-        cl = self.cl
+        """All passes from exactly these lights (deterministic)."""
         w, h = self.width, self.height
         cam = self.scene.camera
-        world_from_clip = np.linalg.inv(cam.clip_from_world(w / h)).astype(np.float32)
         axis = -cam.world_from_camera[:3, 2]
         forward = np.array([*axis, -float(axis @ cam.position)], dtype=np.float32)
         light_data = np.zeros((len(lights.pdf), 8), dtype=np.float32)
         light_data[:, :3] = lights.direction
         light_data[:, 4:7] = lights.radiance / lights.pdf[:, None]
-        env = self.scene.environment
-        passes = RenderPasses(
-            np.zeros((h, w, 4), np.float32),
-            np.zeros((h, w), np.float32),
-            np.zeros((h, w, 3), np.float32),
-            np.zeros((h, w, 2), np.float32),
-        )
-        rows = max(1, min(h, BAND_PIXELS // w))
-        mf = cl.mem_flags
-        outs = [cl.Buffer(self.ctx.context, mf.WRITE_ONLY, rows * w * 4 * k) for k in (4, 1, 3, 2)]
-        wfc = self._buffer(world_from_clip.ravel(), np.float32)
         lights_buf = self._buffer(light_data.ravel(), np.float32)
-        for row0 in range(0, h, rows):
-            band = min(rows, h - row0)
+        head = [np.int32(w), np.int32(h)]
+        tail_args = [lights_buf, np.int32(len(lights.pdf)), self.eps, *self._env_args()]
+        wfc = self._world_from_clip()
+
+        def launch(row0, band, buffers):
             self.kernel(
                 self.ctx.queue,
                 (w, band),
                 None,
-                np.int32(w),
-                np.int32(h),
+                *head,
                 np.int32(row0),
                 wfc,
                 forward,
-                np.int32(self.triangle_count),
-                self.bounds,
-                self.links,
-                self.corners,
-                self.tri_material,
-                self.ints,
-                self.floats,
-                self.material_offsets,
-                self.material_params,
-                lights_buf,
-                np.int32(len(lights.pdf)),
-                self.eps,
-                self.env,
-                np.int32(env.width),
-                np.int32(env.height),
-                np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
-                *outs,
+                *self._scene_args(),
+                *tail_args,
+                *buffers,
             )
-            for buf, target, k in zip(
-                outs,
-                (passes.combined, passes.depth, passes.normal, passes.uv),
-                (4, 1, 3, 2),
-                strict=True,
-            ):
-                host = np.empty(band * w * k, dtype=np.float32)
-                cl.enqueue_copy(self.ctx.queue, host, buf)
-                target[row0 : row0 + band] = host.reshape(target[row0 : row0 + band].shape)
-            if progress is not None and not progress((row0 + band) / h):
-                break
-        return passes
+
+        combined, depth, normal, uv = self._run_bands(launch, (4, 1, 3, 2), progress)
+        return RenderPasses(combined, depth[..., 0], normal, uv)
 
     def render_sampled(
         self, samples: int, seed: int = 0, progress: Callable[[float], bool] | None = None
     ) -> np.ndarray:
         """(h, w, 4) Combined by Monte Carlo: ``samples`` per pixel, each one environment sample
         and one cosine sample with MIS (power heuristic). Converges to the lighting integral."""
-        cl = self.cl
         w, h = self.width, self.height
-        cam = self.scene.camera
-        wfc = self._buffer(np.linalg.inv(cam.clip_from_world(w / h)).ravel(), np.float32)
-        env = self.scene.environment
-        image = np.zeros((h, w, 4), np.float32)
-        rows = max(1, min(h, BAND_PIXELS // w))
-        out = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, rows * w * 16)
-        for row0 in range(0, h, rows):
-            band = min(rows, h - row0)
+        wfc = self._world_from_clip()
+        tail_args = [
+            self.eps,
+            *self._env_args(),
+            *self.env_tables,
+            np.int32(samples),
+            np.uint32(seed),
+        ]
+
+        def launch(row0, band, buffers):
             self.kernel_mis(
                 self.ctx.queue,
                 (w, band),
@@ -204,28 +220,10 @@ class CLRenderer:
                 np.int32(h),
                 np.int32(row0),
                 wfc,
-                np.int32(self.triangle_count),
-                self.bounds,
-                self.links,
-                self.corners,
-                self.tri_material,
-                self.ints,
-                self.floats,
-                self.material_offsets,
-                self.material_params,
-                self.eps,
-                self.env,
-                np.int32(env.width),
-                np.int32(env.height),
-                np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
-                *self.env_tables,
-                np.int32(samples),
-                np.uint32(seed),
-                out,
+                *self._scene_args(),
+                *tail_args,
+                *buffers,
             )
-            host = np.empty(band * w * 4, dtype=np.float32)
-            cl.enqueue_copy(self.ctx.queue, host, out)
-            image[row0 : row0 + band] = host.reshape(band, w, 4)
-            if progress is not None and not progress((row0 + band) / h):
-                break
-        return image
+
+        (combined,) = self._run_bands(launch, (4,), progress)
+        return combined
