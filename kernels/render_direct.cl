@@ -163,7 +163,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              const float2 env_params, __global const float *row_cdf,
                              __global const float *col_cdf, __global const float *row_pdf,
                              __global const float *col_pdf, const int samples, const uint seed,
-                             __global float *combined)
+                             const int max_bounces, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
   int y = row0 + yr;
@@ -182,58 +182,85 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   }
   SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
                                   eps);
-  __global const float *I = ints + material_offsets[2 * sp.material];
-  __global const float *F = floats + material_offsets[2 * sp.material + 1];
-  float3 n = sp.n, tt = sp.t, b = sp.b, wo = sp.wo;
-  float2 view = sp.view, buv = sp.btf_uv;
-  float3 start = sp.start;
-  __global const float *mp = material_params + 8 * sp.material;
   float rotation = env_params.x;
   uint rng = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
-  for (int si = 0; si < samples && wo.z > 0.0f; si++) {
-    for (int strategy = 0; strategy < 2; strategy++) {
-      float3 dir;
-      float pdf_light, pdf_bsdf;
+  for (int si = 0; si < samples; si++) {
+    SurfacePoint cur = sp;
+    float3 throughput = (float3)(1.0f);
+    for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
+      __global const float *I = ints + material_offsets[2 * cur.material];
+      __global const float *F = floats + material_offsets[2 * cur.material + 1];
+      float exposure = material_params[8 * cur.material + 4];
       int pixel;
-      if (strategy == 0) { /* the environment's distribution */
+      /* 1. Next-event estimation: a direction from the environment's distribution. */
+      {
         float u0 = rand01(&rng), u1 = rand01(&rng);
         int row = cdf_search(row_cdf, env_h, u0);
         float dt = (u0 - row_cdf[row]) / fmax(row_cdf[row + 1] - row_cdf[row], 1e-30f);
         __global const float *cc = col_cdf + row * (env_w + 1);
         int col = cdf_search(cc, env_w, u1);
         float ds = (u1 - cc[col]) / fmax(cc[col + 1] - cc[col], 1e-30f);
-        dir = env_direction((col + clamp(ds, 0.0f, 0.999999f)) / env_w,
-                            (row + clamp(dt, 0.0f, 0.999999f)) / env_h, rotation);
-        pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
-        float cos_n = dot(dir, n);
-        pdf_bsdf = fmax(cos_n, 0.0f) / M_PI_F;
-      }
-      else { /* cosine-weighted about the shading normal */
-        float u0 = rand01(&rng), u1 = rand01(&rng);
-        float r = sqrt(u0), phi = 2.0f * M_PI_F * u1;
-        float3 lo = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(1.0f - u0, 0.0f)));
-        dir = lo.x * tt + lo.y * b + lo.z * n;
-        pdf_bsdf = lo.z / M_PI_F;
-        pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
-      }
-      float3 wi = (float3)(dot(dir, tt), dot(dir, b), dot(dir, n));
-      float pdf_own = strategy == 0 ? pdf_light : pdf_bsdf;
-      if (wi.z <= 0.0f || pdf_own <= 0.0f) {
-        continue;
-      }
+        float3 dir = env_direction((col + clamp(ds, 0.0f, 0.999999f)) / env_w,
+                                   (row + clamp(dt, 0.0f, 0.999999f)) / env_h, rotation);
+        float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
+        float3 wi = to_frame(&cur, dir);
+        float pdf_bsdf = fmax(wi.z, 0.0f) / M_PI_F;
+        bool visible = wi.z > 0.0f && pdf_light > 0.0f;
 #if HAS_SHADOWS
-      float ts, us, vs;
-      if (trace(start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
-        continue;
-      }
+        float ts, us, vs;
+        visible = visible &&
+                  trace(cur.start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us,
+                        &vs) < 0;
 #endif
-      float3 radiance = vload3(0, env + 4 * pixel) * env_params.y;
-      float2 light = btf_theta_phi_deg(wi);
-      float3 value = btf_evaluate(I, F, buv, wi, wo, light.x, light.y, view.x, view.y);
-      float weight = pdf_own * pdf_own / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
-      sum += value * radiance * (weight / pdf_own);
+        if (visible) {
+          float2 light = btf_theta_phi_deg(wi);
+          float3 value = btf_evaluate(I, F, cur.btf_uv, wi, cur.wo, light.x, light.y, cur.view.x,
+                                      cur.view.y);
+          float weight = pdf_light * pdf_light / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
+          sum += throughput * exposure * value * vload3(0, env + 4 * pixel) * env_params.y *
+                 (weight / pdf_light);
+        }
+      }
+      /* 2. A cosine-weighted direction: it either reaches the World (MIS-weighted against the
+       * environment sample above) or, within the bounce limit, continues the path. */
+      float u0 = rand01(&rng), u1 = rand01(&rng);
+      float r = sqrt(u0), phi = 2.0f * M_PI_F * u1;
+      float3 lo = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(1.0f - u0, 0.0f)));
+      float3 dir = lo.x * cur.t + lo.y * cur.b + lo.z * cur.n;
+      float pdf_bsdf = lo.z / M_PI_F;
+      if (pdf_bsdf <= 0.0f) {
+        break;
+      }
+      float2 light = btf_theta_phi_deg(lo);
+      float3 value = btf_evaluate(I, F, cur.btf_uv, lo, cur.wo, light.x, light.y, cur.view.x,
+                                  cur.view.y);
+      float3 step = throughput * exposure * value / pdf_bsdf;
+      float th = 0.0f, uh = 0.0f, vh = 0.0f;
+      int hit = -1;
+#if HAS_SHADOWS /* surfaces that can occlude each other can also reflect each other */
+      hit = trace(cur.start, dir, eps, INFINITY, bounds, links, corners, false, &th, &uh, &vh);
+#endif
+      if (hit < 0) {
+        float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
+        float weight = pdf_bsdf * pdf_bsdf / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
+        sum += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
+        break;
+      }
+      if (bounce >= max_bounces) {
+        break; /* the World is blocked and the path may not go further */
+      }
+      cur = surface_point(cur.start, dir, th, uh, vh, hit, corners, tri_material, material_params,
+                          eps);
+      throughput = step;
+      if (bounce >= 2) { /* Russian roulette keeps long paths unbiased and cheap */
+        float keep = fmin(fmax(throughput.x, fmax(throughput.y, throughput.z)), 0.95f);
+        if (rand01(&rng) >= keep) {
+          break;
+        }
+        throughput /= keep;
+      }
     }
   }
-  vstore4((float4)(sum * (mp[4] / (float)max(samples, 1)), 1.0f), px, combined);
+  vstore4((float4)(sum / (float)max(samples, 1), 1.0f), px, combined);
 }

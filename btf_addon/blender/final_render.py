@@ -62,7 +62,9 @@ def render(engine, depsgraph) -> None:
     if settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT":
         # Depth, normal and UV come from the deterministic kernel with one light (cheap).
         passes = renderer.render_direct(lights.prefix(1))
-        passes.combined = renderer.render_sampled(settings.samples, settings.seed, progress)
+        passes.combined = renderer.render_sampled(
+            settings.samples, settings.seed, progress, max_bounces=settings.max_bounces
+        )
     else:
         passes = renderer.render_direct(lights, progress)
     view_layer = depsgraph.view_layer

@@ -55,6 +55,13 @@ class BTFRenderSettings(PropertyGroup):
         ],
         default="VIRTUAL",
     )
+    max_bounces: IntProperty(
+        name="Max Bounces",
+        default=4,
+        min=0,
+        max=64,
+        description="Indirect reflections in the Sampled final render",
+    )
     samples: IntProperty(
         name="Samples",
         default=64,

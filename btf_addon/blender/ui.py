@@ -61,6 +61,9 @@ class BTF_PT_render_settings(Panel):
         row = layout.row()
         row.active = settings.final_mode == "SAMPLED"
         row.prop(settings, "samples")
+        row = layout.row()
+        row.active = settings.final_mode == "SAMPLED"
+        row.prop(settings, "max_bounces")
 
 
 classes = (BTF_PT_material, BTF_PT_render_settings)

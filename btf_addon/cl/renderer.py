@@ -197,18 +197,27 @@ class CLRenderer:
         return RenderPasses(combined, depth[..., 0], normal, uv)
 
     def render_sampled(
-        self, samples: int, seed: int = 0, progress: Callable[[float], bool] | None = None
+        self,
+        samples: int,
+        seed: int = 0,
+        progress: Callable[[float], bool] | None = None,
+        max_bounces: int = 0,
     ) -> np.ndarray:
-        """(h, w, 4) Combined by Monte Carlo: ``samples`` per pixel, each one environment sample
-        and one cosine sample with MIS (power heuristic). Converges to the lighting integral."""
+        """(h, w, 4) Combined by path tracing: ``samples`` paths per pixel; at every vertex one
+        environment sample and one cosine sample with MIS (power heuristic); up to
+        ``max_bounces`` indirect reflections (none where the scene analysis finds no surface
+        that can see another), Russian roulette after the second."""
         w, h = self.width, self.height
         wfc = self._world_from_clip()
+        # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
+        bounces = max(max_bounces, 0) if self.features.shadows else 0
         tail_args = [
             self.eps,
             *self._env_args(),
             *self.env_tables,
             np.int32(samples),
             np.uint32(seed),
+            np.int32(bounces),
         ]
 
         def launch(row0, band, buffers):

@@ -47,6 +47,9 @@ def add_parser(sub) -> None:
         help="envmap lighting: samples per pixel (default 64); glsl engine: lights per "
         "accumulation pass (default: all)",
     )
+    p.add_argument(
+        "--bounces", type=int, default=4, help="envmap lighting: indirect reflections (default 4)"
+    )
     p.set_defaults(func=cmd_render)
 
 
@@ -149,7 +152,9 @@ def _render(args, scene, width: int, height: int, lights) -> np.ndarray:
     except (OpenCLUnavailableError, RuntimeError) as exc:
         raise BTFError(f"OpenCL final render unavailable ({exc}); try --engine glsl") from None
     if args.lighting == "envmap":
-        return renderer.render_sampled(args.samples or 64, seed=0)[..., :3]
+        return renderer.render_sampled(args.samples or 64, seed=0, max_bounces=args.bounces)[
+            ..., :3
+        ]
     return renderer.render_direct(lights).combined[..., :3]
 
 

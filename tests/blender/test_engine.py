@@ -179,6 +179,11 @@ def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
     virtual = read_exr(tmp_path / "f12.exr")
     scene.btf_render.final_mode = "SAMPLED"
     scene.btf_render.samples = 256
+    scene.btf_render.max_bounces = 0  # the virtual-light image is direct lighting
     bpy_module.ops.render.render(write_still=True)
-    sampled = read_exr(tmp_path / "f12.exr")
-    np.testing.assert_allclose(sampled.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.02)
+    direct = read_exr(tmp_path / "f12.exr")
+    np.testing.assert_allclose(direct.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.02)
+    scene.btf_render.max_bounces = 4  # sphere and ground light each other: brighter
+    bpy_module.ops.render.render(write_still=True)
+    bounced = read_exr(tmp_path / "f12.exr")
+    assert bounced.mean() > direct.mean() * 1.01

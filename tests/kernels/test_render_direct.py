@@ -169,3 +169,23 @@ def test_monte_carlo_mode_converges_to_the_virtual_light_integral(cl_context, rn
     virtual = renderer.render_direct(env.virtual_lights(8192)).combined[..., :3]
     assert rel_rmse(sampled, virtual) < 0.03
     np.testing.assert_allclose(sampled.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.005)
+
+
+def test_bounces_only_where_surfaces_can_see_each_other(cl_context, rng):
+    from btf_addon.cl.renderer import CLRenderer
+
+    env = forest_like(rng)
+    lone = CLRenderer(sphere_scene(LambertianBTF(0.7), env), 32, 24, cl_context)
+    np.testing.assert_array_equal(
+        lone.render_sampled(16, seed=3, max_bounces=4),
+        lone.render_sampled(16, seed=3, max_bounces=0),
+    )
+    ground = plane(6.0, material=0)
+    ground.world_from_object = np.eye(4)
+    ground.world_from_object[2, 3] = -1.0
+    pair = CLRenderer(
+        sphere_scene(LambertianBTF(0.7), env, [uv_sphere(1.0, 32, 16), ground]), 32, 24, cl_context
+    )
+    direct = pair.render_sampled(256, seed=3, max_bounces=0)[..., :3].mean()
+    bounced = pair.render_sampled(256, seed=3, max_bounces=3)[..., :3].mean()
+    assert bounced > direct * 1.01  # interreflection adds light
