@@ -35,6 +35,33 @@ inline float3 env_lookup(__global const float *env, int w, int h, float2 params,
   return ((c00 * (1 - ax) + c10 * ax) * (1 - ay) + (c01 * (1 - ax) + c11 * ax) * ay) * params.y;
 }
 
+/* Sun lights at a surface point: value · irradiance where unoccluded. Delta lights cannot be
+ * hit by sampled directions, so they take no part in MIS. */
+inline float3 sun_light(const SurfacePoint *sp, __global const float *I, __global const float *F,
+                        __global const float *suns, int sun_count, float eps,
+                        __global const float *bounds, __global const int *links,
+                        __global const float *corners)
+{
+  float3 sum = (float3)(0.0f);
+  for (int i = 0; i < sun_count; i++) {
+    float3 dir = vload3(0, suns + 8 * i);
+    float3 wi = to_frame(sp, dir);
+    if (wi.z <= 0.0f) {
+      continue;
+    }
+#if HAS_SHADOWS
+    float ts, us, vs;
+    if (trace(sp->start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
+      continue;
+    }
+#endif
+    float2 light = btf_theta_phi_deg(wi);
+    sum += btf_evaluate(I, F, sp->btf_uv, wi, sp->wo, light.x, light.y, sp->view.x, sp->view.y) *
+           vload3(0, suns + 8 * i + 4);
+  }
+  return sum;
+}
+
 __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *world_from_clip, const float4 camera_forward,
                             const int tri_count, __global const float *bounds,
@@ -44,6 +71,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *material_params, __global const float *lights,
                             const int n_lights, const float eps, __global const float *env,
                             const int env_w, const int env_h, const float2 env_params,
+                            __global const float *suns, const int sun_count,
                             __global float *combined, __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
@@ -88,7 +116,11 @@ __kernel void render_direct(const int width, const int height, const int row0,
              vload3(0, lights + 8 * i + 4);
     }
   }
-  sum *= material_params[8 * sp.material + 4] / (float)max(n_lights, 1);
+  sum /= (float)max(n_lights, 1);
+  if (sp.wo.z > 0.0f) {
+    sum += sun_light(&sp, I, F, suns, sun_count, eps, bounds, links, corners);
+  }
+  sum *= material_params[8 * sp.material + 4];
   vstore4((float4)(sum, 1.0f), px, combined);
   depth[px] = dot(sp.p, camera_forward.xyz) + camera_forward.w; /* distance along the camera axis */
   vstore3(sp.n, px, normal_out);
@@ -160,7 +192,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const int *material_offsets,
                              __global const float *material_params, const float eps,
                              __global const float *env, const int env_w, const int env_h,
-                             const float2 env_params, __global const float *row_cdf,
+                             const float2 env_params, __global const float *suns,
+                             const int sun_count, __global const float *row_cdf,
                              __global const float *col_cdf, __global const float *row_pdf,
                              __global const float *col_pdf, const int samples, const uint seed,
                              const int max_bounces, __global float *combined)
@@ -222,6 +255,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                  (weight / pdf_light);
         }
       }
+      sum += throughput * exposure * sun_light(&cur, I, F, suns, sun_count, eps, bounds, links,
+                                                corners);
       /* 2. A cosine-weighted direction: it either reaches the World (MIS-weighted against the
        * environment sample above) or, within the bounce limit, continues the path. */
       float u0 = rand01(&rng), u1 = rand01(&rng);

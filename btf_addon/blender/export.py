@@ -22,7 +22,7 @@ from ..core.analytic import LambertianBTF
 from ..core.codecs import load_btf
 from ..core.errors import BTFError
 from ..core.model import BTF
-from ..render.scene import Camera, Material, Mesh, Scene
+from ..render.scene import Camera, Material, Mesh, Scene, SunLight
 from ..render.tangents import corner_tangents
 from .world import environment_from_world
 
@@ -203,8 +203,24 @@ def export_scene(
     materials: list[Material] = []
     material_ids: dict[str, tuple[int, str]] = {}
     meshes: list[Mesh] = []
+    suns: list[SunLight] = []
     for inst in depsgraph.object_instances:
         obj = inst.object
+        if obj.type == "LIGHT":
+            light = obj.data
+            if light.type == "SUN":
+                towards = np.array(inst.matrix_world.to_3x3().col[2], dtype=np.float64)
+                suns.append(
+                    SunLight(
+                        towards / np.linalg.norm(towards),
+                        np.array(light.color, dtype=np.float64) * light.energy,
+                    )
+                )
+            else:
+                message = f"{light.type.lower()} light {obj.name!r} is not rendered yet (sun only)"
+                if message not in messages:
+                    messages.append(message)
+            continue
         if obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
             continue
         slot_ids, slot_names = [], []
@@ -239,7 +255,7 @@ def export_scene(
         camera = Camera(np.eye(4))
     else:
         camera = export_camera(scene, width, height)
-    return Scene(meshes, materials, camera, env, messages)
+    return Scene(meshes, materials, camera, env, messages, suns)
 
 
 def changed_ids(depsgraph) -> tuple[set[str], set[str], bool]:

@@ -59,6 +59,11 @@ class CLRenderer:
         rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
         self.env = self._buffer(rgba.ravel(), np.float32)
         # The environment's sampling tables, exactly those of core/envmap.py.
+        sun_data = np.zeros((max(len(scene.suns), 1), 8), dtype=np.float32)
+        for i, sun in enumerate(scene.suns):
+            sun_data[i, :3], sun_data[i, 4:7] = sun.direction, sun.irradiance
+        self.suns = self._buffer(sun_data.ravel(), np.float32)
+        self.sun_count = np.int32(len(scene.suns))
         self.env_tables = [
             self._buffer(a.ravel(), np.float32)
             for a in (env.row_cdf, env.col_cdf, env.row_pdf, env.col_pdf)
@@ -129,12 +134,15 @@ class CLRenderer:
         ]
 
     def _env_args(self) -> list:
+        """The World and the sun lights."""
         env = self.scene.environment
         return [
             self.env,
             np.int32(env.width),
             np.int32(env.height),
             np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
+            self.suns,
+            self.sun_count,
         ]
 
     def _world_from_clip(self):

@@ -109,3 +109,30 @@ def test_matches_cycles(bpy_module, fresh_scene, tmp_path, kind, ground, bounces
     # over the image must agree much more tightly than the per-pixel RMSE.
     assert rel_rmse < bound, rel_rmse
     np.testing.assert_allclose(ours.mean(axis=(0, 1)), reference.mean(axis=(0, 1)), rtol=0.01)
+
+
+def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
+    """A Blender Sun (angle 0, strength 3 W/m²) over the sphere and its ground, black World:
+    Sun strength is irradiance perpendicular to the light, as our convention's E."""
+    bpy = bpy_module
+    scene = build(bpy, tmp_path, "diffuse", ground=True)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    sun_data = bpy.data.lights.new("Sun", "SUN")
+    sun_data.energy = 3.0
+    sun_data.angle = 0.0
+    sun = bpy.data.objects.new("Sun", sun_data)
+    scene.collection.objects.link(sun)
+    sun.rotation_euler = (math.radians(35.0), 0.0, math.radians(30.0))
+    reference = cycles_reference(bpy, scene, tmp_path, 64, 0)
+    export = extension_submodule("btf_addon.blender.export")
+    cl_renderer = extension_submodule("btf_addon.cl.renderer")
+    cl_context = extension_submodule("btf_addon.cl.context")
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), *SIZE)
+    assert len(exported.suns) == 1
+    renderer = cl_renderer.CLRenderer(exported, *SIZE, cl_context.create_context())
+    ours = renderer.render_sampled(4, seed=1)[..., :3]
+    direct = renderer.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
+    diff = ours - reference
+    assert float(np.sqrt(np.mean(diff**2)) / np.sqrt(np.mean(reference**2))) < 0.02
+    np.testing.assert_allclose(direct, ours, rtol=1e-4, atol=1e-5)  # both modes light the sun
+    assert reference.max() > 0.1  # lit, with a shadow on the ground
