@@ -10,8 +10,9 @@
  * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands. */
 
 #include "btf_packed.h"
-#include "btf_surface.h"
+/* btf_surface.h after btf_trace.h: its primary_hit traces. */
 #include "btf_trace.h"
+#include "btf_surface.h"
 
 #ifndef HAS_SHADOWS
 #define HAS_SHADOWS 1
@@ -82,10 +83,9 @@ __kernel void render_direct(const int width, const int height, const int row0,
   }
   int px = yr * width + x; /* index inside this band's buffers */
   float3 o, d;
-  camera_ray(x, y, width, height, world_from_clip, &o, &d);
-  float t = 0.0f, bu = 0.0f, bv = 0.0f;
-  int tri = tri_count > 0 ? trace(o, d, 0.0f, INFINITY, bounds, links, corners, false, &t, &bu, &bv)
-                          : -1;
+  float t, bu, bv;
+  int tri = primary_hit(x, y, width, height, world_from_clip, tri_count, bounds, links, corners,
+                        &o, &d, &t, &bu, &bv);
   if (tri < 0) {
     vstore4((float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f), px, combined);
     depth[px] = 1e10f;
@@ -205,10 +205,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   }
   int px = yr * width + x;
   float3 o, d;
-  camera_ray(x, y, width, height, world_from_clip, &o, &d);
-  float t = 0.0f, bu = 0.0f, bv = 0.0f;
-  int tri = tri_count > 0 ? trace(o, d, 0.0f, INFINITY, bounds, links, corners, false, &t, &bu, &bv)
-                          : -1;
+  float t, bu, bv;
+  int tri = primary_hit(x, y, width, height, world_from_clip, tri_count, bounds, links, corners,
+                        &o, &d, &t, &bu, &bv);
   if (tri < 0) {
     vstore4((float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f), px, combined);
     return;

@@ -115,19 +115,11 @@ def render_glsl(engine, exported, scene, w: int, h: int) -> None:
     accumulation = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
     output = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
     try:
-        with background.bind():
-            drawer.draw_background(clip_from_world, (w, h))
-        with accumulation.bind():
-            fb = gpu.state.active_framebuffer_get()
-            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-            drawer.draw_surfaces(clip_from_world, camera, 0, 0, depth_only=True)
-            while not drawer.state.converged:
-                first, count = drawer.state.next_batch()
-                drawer.draw_surfaces(clip_from_world, camera, first, count, depth_only=False)
-                drawer.state.advance(count)
-                engine.update_progress(drawer.state.done / drawer.state.total)
-                if engine.test_break():
-                    break
+        drawer.restart(background, accumulation, clip_from_world, camera, (w, h))
+        while drawer.add_batch(accumulation, clip_from_world, camera):
+            engine.update_progress(drawer.state.done / drawer.state.total)
+            if engine.test_break():
+                break
         with output.bind():
             drawer.draw_resolve(accumulation.texture_color, background.texture_color)
             pixels = gpu.state.active_framebuffer_get().read_color(0, 0, w, h, 4, 0, "FLOAT")

@@ -128,10 +128,7 @@ class SceneDrawer:
 
     def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
         n = len(lights.pdf)
-        texels = np.zeros((1, 2 * n, 4), dtype=np.float32)
-        texels[0, 0::2, :3] = lights.direction
-        texels[0, 1::2, :3] = lights.radiance / lights.pdf[:, None]
-        self.lights_tex = texture(texels, "RGBA32F")
+        self.lights_tex = texture(lights.packed().reshape(1, 2 * n, 4), "RGBA32F")
         self.state = ProgressiveState(total=n, per_pass=per_pass)
 
     def draw_background(self, clip_from_world: np.ndarray, size: tuple[int, int]) -> None:
@@ -174,6 +171,24 @@ class SceneDrawer:
         gpu.state.depth_mask_set(True)
         gpu.state.blend_set("NONE")
         gpu.state.depth_test_set("NONE")
+
+    def restart(self, background, accumulation, clip_from_world, camera, size) -> None:
+        """Draw the World into the ``background`` offscreen, clear the ``accumulation`` one and
+        lay down its depth (the pre-pass the light batches test EQUAL against)."""
+        with background.bind():
+            self.draw_background(clip_from_world, size)
+        with accumulation.bind():
+            gpu.state.active_framebuffer_get().clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            self.draw_surfaces(clip_from_world, camera, 0, 0, depth_only=True)
+
+    def add_batch(self, accumulation, clip_from_world, camera) -> int:
+        """Add the next batch of lights into ``accumulation``; how many (0 once converged)."""
+        first, count = self.state.next_batch()
+        if count:
+            with accumulation.bind():
+                self.draw_surfaces(clip_from_world, camera, first, count, depth_only=False)
+            self.state.advance(count)
+        return count
 
     def draw_resolve(self, accumulation, background) -> None:
         sh = self.resolve_shader

@@ -11,25 +11,10 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 
 from ..core.model import BTF, Queries
-from ..gl.interface import QUERY_SHADER, ShaderCompileError
+from ..gl.interface import QUERY_SHADER
 from ..gl.query import query_textures
 from ..gl.tables import pack
-
-
-def _texture(array: np.ndarray, fmt: str) -> gpu.types.GPUTexture:
-    h, w = array.shape[:2]
-    data = gpu.types.Buffer("FLOAT", array.size, np.ascontiguousarray(array, np.float32).ravel())
-    return gpu.types.GPUTexture((w, h), format=fmt, data=data)
-
-
-def compile_shader(interface=QUERY_SHADER) -> gpu.types.GPUShader:
-    try:
-        return gpu.shader.create_from_info(interface.blender_create_info())
-    except Exception as exc:  # Blender raises a bare Exception; its log goes to stderr
-        raise ShaderCompileError(
-            f"GLSL shader {interface.name!r} failed to compile in Blender ({exc}); "
-            "the compiler log is in Blender's console"
-        ) from None
+from .gpu_draw import shader, texture
 
 
 class BlenderGPUBTF(BTF):
@@ -37,9 +22,9 @@ class BlenderGPUBTF(BTF):
         self.btf = btf
         self.meta = btf.meta
         packed = pack(btf)
-        self.shader = compile_shader()
-        self.int_tex = _texture(packed.ints, "R32F")
-        self.float_tex = _texture(packed.floats, "R32F")
+        self.shader = shader(QUERY_SHADER)
+        self.int_tex = texture(packed.ints, "R32F")
+        self.float_tex = texture(packed.floats, "R32F")
         self.batch = batch_for_shader(
             self.shader,
             "TRIS",
@@ -49,8 +34,8 @@ class BlenderGPUBTF(BTF):
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         n = len(q.uv)
         a, b, (w, h) = query_textures(q)
-        tex_a = _texture(a, "RGBA32F")
-        tex_b = _texture(b, "RGBA32F")
+        tex_a = texture(a, "RGBA32F")
+        tex_b = texture(b, "RGBA32F")
         offscreen = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
         try:
             with offscreen.bind():

@@ -94,17 +94,9 @@ def view_draw(engine, context, depsgraph) -> None:
     if key != state.view_key:
         per_pass = settings.lights_per_redraw if settings.progressive else settings.lights_total
         drawer.set_lights(frame_lights(settings, drawer.scene, world_from_view[:3, 2]), per_pass)
-        with state.background.bind():
-            drawer.draw_background(clip_from_world, size)
-        with state.accumulation.bind():
-            gpu.state.active_framebuffer_get().clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-            drawer.draw_surfaces(clip_from_world, camera, 0, 0, depth_only=True)
+        drawer.restart(state.background, state.accumulation, clip_from_world, camera, size)
         state.view_key = key
-    if not drawer.state.converged:
-        first, count = drawer.state.next_batch()
-        with state.accumulation.bind():
-            drawer.draw_surfaces(clip_from_world, camera, first, count, depth_only=False)
-        drawer.state.advance(count)
+    drawer.add_batch(state.accumulation, clip_from_world, camera)
     with state.output.bind():
         drawer.draw_resolve(state.accumulation.texture_color, state.background.texture_color)
     gpu.state.blend_set("ALPHA_PREMULT")

@@ -179,10 +179,7 @@ class CLRenderer:
         cam = self.scene.camera
         axis = -cam.world_from_camera[:3, 2]
         forward = np.array([*axis, -float(axis @ cam.position)], dtype=np.float32)
-        light_data = np.zeros((len(lights.pdf), 8), dtype=np.float32)
-        light_data[:, :3] = lights.direction
-        light_data[:, 4:7] = lights.radiance / lights.pdf[:, None]
-        lights_buf = self._buffer(light_data.ravel(), np.float32)
+        lights_buf = self._buffer(lights.packed().ravel(), np.float32)
         head = [np.int32(w), np.int32(h)]
         tail_args = [lights_buf, np.int32(len(lights.pdf)), self.eps, *self._env_args()]
         wfc = self._world_from_clip()

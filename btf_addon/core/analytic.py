@@ -25,19 +25,24 @@ def _rgb(value: Any, what: str) -> np.ndarray:
     return rgb
 
 
+def _analytic_meta(codec: str, tile_size_mm) -> BTFMeta:
+    """Analytic BTFs are spatially uniform (one texel) and have no measurement grid."""
+    return BTFMeta(
+        codec=codec,
+        name=codec,
+        width=1,
+        height=1,
+        n_views=0,
+        n_lights=0,
+        angular_grid="analytic",
+        tile_size_mm=tuple(tile_size_mm),
+    )
+
+
 class LambertianBTF(BTF):
     def __init__(self, albedo: Any = 0.8, tile_size_mm: tuple[float, float] = (10.0, 10.0)):
         self.albedo = _rgb(albedo, "albedo")
-        self.meta = BTFMeta(
-            codec="lambertian",
-            name="lambertian",
-            width=1,
-            height=1,
-            n_views=0,
-            n_lights=0,
-            angular_grid="analytic",
-            tile_size_mm=tuple(tile_size_mm),
-        )
+        self.meta = _analytic_meta("lambertian", tile_size_mm)
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         return self.albedo[None, :] / np.pi * q.wi[:, 2:3]
@@ -89,16 +94,7 @@ class GGXBTF(BTF):
         self.roughness = float(roughness)
         alpha = max(self.roughness, MIN_ROUGHNESS) ** 2
         self.alpha2 = alpha * alpha
-        self.meta = BTFMeta(
-            codec="ggx",
-            name="ggx",
-            width=1,
-            height=1,
-            n_views=0,
-            n_lights=0,
-            angular_grid="analytic",
-            tile_size_mm=tuple(tile_size_mm),
-        )
+        self.meta = _analytic_meta("ggx", tile_size_mm)
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         return self.albedo[None, :] * ggx_value(q.wi, q.wo, self.alpha2)[:, None]

@@ -43,6 +43,14 @@ class VirtualLights:
         """The first k lights: itself a stratified estimate."""
         return VirtualLights(self.direction[:k], self.radiance[:k], self.pdf[:k])
 
+    def packed(self) -> np.ndarray:
+        """(N, 8) float32 rows (direction xyz, 0, radiance/pdf rgb, 0): the layout every GPU back
+        end reads (GLSL as two RGBA texels per light, OpenCL as 8 floats per light)."""
+        rows = np.zeros((len(self.pdf), 8), dtype=np.float32)
+        rows[:, :3] = self.direction
+        rows[:, 4:7] = self.radiance / self.pdf[:, None]
+        return rows
+
     def weights(self, k: int | None = None) -> np.ndarray:
         """(k, 3) irradiance carried by each of the first k lights: L_i / (pdf_i · k)."""
         k = len(self.pdf) if k is None else k

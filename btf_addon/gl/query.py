@@ -50,21 +50,26 @@ def compile_program(ctx, interface=QUERY_SHADER):
         ) from None
 
 
+def upload_tables(ctx, btf: BTF):
+    """A BTF's packed tables as two R32F moderngl textures (ints, floats), nearest filtering."""
+    packed = pack(btf)
+    textures = tuple(
+        ctx.texture(a.shape[::-1], 1, a.tobytes(), dtype="f4") for a in (packed.ints, packed.floats)
+    )
+    for tex in textures:
+        tex.filter = (ctx.NEAREST, ctx.NEAREST)
+    return textures
+
+
 class GLSLBTF(BTF):
     """A core BTF evaluated by the GLSL shaders (moderngl, headless EGL)."""
 
     def __init__(self, btf: BTF, ctx=None):
         self.btf = btf
         self.meta = btf.meta
-        packed = pack(btf)
         self.ctx = ctx or create_gl_context()
+        self.int_tex, self.float_tex = upload_tables(self.ctx, btf)
         self.program = compile_program(self.ctx)
-        self.int_tex = self.ctx.texture(
-            packed.ints.shape[::-1], 1, packed.ints.tobytes(), dtype="f4"
-        )
-        self.float_tex = self.ctx.texture(
-            packed.floats.shape[::-1], 1, packed.floats.tobytes(), dtype="f4"
-        )
         quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
         self.vbo = self.ctx.buffer(quad.tobytes())
         self.vao = self.ctx.vertex_array(self.program, [(self.vbo, "2f", "pos")])
@@ -80,7 +85,7 @@ class GLSLBTF(BTF):
         target = self.ctx.texture((w, h), 4, dtype="f4")
         fbo = self.ctx.framebuffer(color_attachments=[target])
         try:
-            for tex in (self.int_tex, self.float_tex, tex_a, tex_b):
+            for tex in (tex_a, tex_b):
                 tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
             self.int_tex.use(0)
             self.float_tex.use(1)

@@ -14,8 +14,7 @@ from ..core.envmap import VirtualLights
 from ..render.progressive import ProgressiveState
 from ..render.scene import Scene
 from .interface import BACKGROUND_SHADER, SURFACE_SHADER
-from .query import compile_program, create_gl_context
-from .tables import pack
+from .query import compile_program, create_gl_context, upload_tables
 
 
 def _f32(m: np.ndarray) -> bytes:
@@ -38,7 +37,7 @@ class GLSLRenderer:
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
         self.bg_color = ctx.texture((width, height), 4, dtype="f4")
         self.bg_fbo = ctx.framebuffer(color_attachments=[self.bg_color])
-        self._material_textures = [self._upload_tables(m.btf) for m in scene.materials]
+        self._material_textures = [upload_tables(ctx, m.btf) for m in scene.materials]
         self._meshes = [self._upload_mesh(m) for m in scene.meshes]
         env = scene.environment
         image = np.ascontiguousarray(env.radiance[..., :3], dtype=np.float32)
@@ -51,14 +50,6 @@ class GLSLRenderer:
         self.state: ProgressiveState | None = None
 
     # --- uploads ----------------------------------------------------------------------------
-    def _upload_tables(self, btf):
-        packed = pack(btf)
-        ints = self.ctx.texture(packed.ints.shape[::-1], 1, packed.ints.tobytes(), dtype="f4")
-        floats = self.ctx.texture(packed.floats.shape[::-1], 1, packed.floats.tobytes(), dtype="f4")
-        for tex in (ints, floats):
-            tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-        return ints, floats
-
     def _upload_mesh(self, mesh):
         buf = self.ctx.buffer(mesh.world_space_corners().tobytes())
         vao = self.ctx.vertex_array(self.surface, [(buf, "3f 3f 2f 4f", "pos", "nor", "uv", "tan")])
@@ -66,9 +57,7 @@ class GLSLRenderer:
 
     def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
         n = len(lights.pdf)
-        texels = np.zeros((1, 2 * n, 4), dtype=np.float32)
-        texels[0, 0::2, :3] = lights.direction
-        texels[0, 1::2, :3] = lights.radiance / lights.pdf[:, None]
+        texels = lights.packed()  # (n, 8) = two RGBA texels per light
         if self.lights_tex is not None:
             self.lights_tex.release()
         self.lights_tex = self.ctx.texture((2 * n, 1), 4, texels.tobytes(), dtype="f4")

@@ -28,6 +28,18 @@ inline void camera_ray(int x, int y, int width, int height, __global const float
   *d = normalize(far_h.xyz / far_h.w - *o);
 }
 
+/* The camera ray of pixel (x, y) and its nearest triangle (-1 where only the World is seen). */
+inline int primary_hit(int x, int y, int width, int height, __global const float *world_from_clip,
+                       int tri_count, __global const float *bounds, __global const int *links,
+                       __global const float *corners, float3 *o, float3 *d, float *t, float *bu,
+                       float *bv)
+{
+  camera_ray(x, y, width, height, world_from_clip, o, d);
+  *t = *bu = *bv = 0.0f;
+  return tri_count > 0 ? trace(*o, *d, 0.0f, INFINITY, bounds, links, corners, false, t, bu, bv)
+                       : -1;
+}
+
 inline SurfacePoint surface_point(float3 o, float3 d, float t, float bu, float bv, int tri,
                                   __global const float *corners, __global const int *tri_material,
                                   __global const float *material_params, float eps)
