@@ -2,21 +2,24 @@
  * the given virtual lights (no MIS, no bounces) — the common ground with the GLSL viewport.
  *
  * Variants: HAS_SHADOWS (shadow rays towards every light; off when the scene analysis proves no
- * surface can shadow another, btf_addon/render/analysis.py).
+ * surface can shadow another, btf_addon/render/analysis.py); HAS_AREA_LIGHTS (the area-light
+ * sampling code, off when the scene has none). Blender's lights: include/btf_lights.h.
  *
  * Passes written per pixel: combined (RGBA), depth (distance along the camera axis from the
  * camera, camera_forward.w = −dot(camera position, forward); 1e10 where
  * nothing is hit, as Blender), normal (world-space shading normal), uv (mesh UV). Rows
  * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands. */
 
+#ifndef HAS_SHADOWS
+#define HAS_SHADOWS 1
+#endif
+
 #include "btf_packed.h"
 /* btf_surface.h after btf_trace.h: its primary_hit traces. */
 #include "btf_trace.h"
 #include "btf_surface.h"
+#include "btf_lights.h"
 
-#ifndef HAS_SHADOWS
-#define HAS_SHADOWS 1
-#endif
 
 inline float3 env_lookup(__global const float *env, int w, int h, float2 params, float3 d)
 {
@@ -36,33 +39,6 @@ inline float3 env_lookup(__global const float *env, int w, int h, float2 params,
   return ((c00 * (1 - ax) + c10 * ax) * (1 - ay) + (c01 * (1 - ax) + c11 * ax) * ay) * params.y;
 }
 
-/* Sun lights at a surface point: value · irradiance where unoccluded. Delta lights cannot be
- * hit by sampled directions, so they take no part in MIS. */
-inline float3 sun_light(const SurfacePoint *sp, __global const float *I, __global const float *F,
-                        __global const float *suns, int sun_count, float eps,
-                        __global const float *bounds, __global const int *links,
-                        __global const float *corners)
-{
-  float3 sum = (float3)(0.0f);
-  for (int i = 0; i < sun_count; i++) {
-    float3 dir = vload3(0, suns + 8 * i);
-    float3 wi = to_frame(sp, dir);
-    if (wi.z <= 0.0f) {
-      continue;
-    }
-#if HAS_SHADOWS
-    float ts, us, vs;
-    if (trace(sp->start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
-      continue;
-    }
-#endif
-    float2 light = btf_theta_phi_deg(wi);
-    sum += btf_evaluate(I, F, sp->btf_uv, wi, sp->wo, light.x, light.y, sp->view.x, sp->view.y) *
-           vload3(0, suns + 8 * i + 4);
-  }
-  return sum;
-}
-
 __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *world_from_clip, const float4 camera_forward,
                             const int tri_count, __global const float *bounds,
@@ -72,7 +48,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *material_params, __global const float *lights,
                             const int n_lights, const float eps, __global const float *env,
                             const int env_w, const int env_h, const float2 env_params,
-                            __global const float *suns, const int sun_count,
+                            __global const float *scene_lights, const int scene_light_count,
                             __global float *combined, __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
@@ -118,7 +94,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
   }
   sum /= (float)max(n_lights, 1);
   if (sp.wo.z > 0.0f) {
-    sum += sun_light(&sp, I, F, suns, sun_count, eps, bounds, links, corners);
+    sum += blender_lights(&sp, I, F, scene_lights, scene_light_count, eps, bounds, links, corners,
+                          0);
   }
   sum *= material_params[8 * sp.material + 4];
   vstore4((float4)(sum, 1.0f), px, combined);
@@ -133,19 +110,6 @@ __kernel void render_direct(const int width, const int height, const int row0,
  * distribution (btf_addon/core/envmap.py, same tables) and one cosine-weighted direction, combined
  * with the power heuristic. Unbiased for any BTF; converges to the integral the virtual lights
  * approximate. Seeds differ per pass so the host can average passes progressively. */
-
-inline uint pcg_hash(uint v)
-{
-  uint state = v * 747796405u + 2891336453u;
-  uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-  return (word >> 22u) ^ word;
-}
-
-inline float rand01(uint *state)
-{
-  *state = pcg_hash(*state);
-  return (float)(*state >> 8) * (1.0f / 16777216.0f);
-}
 
 /* Largest index i in [0, n) with cdf[i] <= u (cdf has n + 1 entries from 0 to 1). */
 inline int cdf_search(__global const float *cdf, int n, float u)
@@ -192,8 +156,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const int *material_offsets,
                              __global const float *material_params, const float eps,
                              __global const float *env, const int env_w, const int env_h,
-                             const float2 env_params, __global const float *suns,
-                             const int sun_count, __global const float *row_cdf,
+                             const float2 env_params, __global const float *scene_lights,
+                             const int scene_light_count, __global const float *row_cdf,
                              __global const float *col_cdf, __global const float *row_pdf,
                              __global const float *col_pdf, const int samples, const uint seed,
                              const int max_bounces, __global float *combined)
@@ -254,8 +218,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                  (weight / pdf_light);
         }
       }
-      sum += throughput * exposure * sun_light(&cur, I, F, suns, sun_count, eps, bounds, links,
-                                                corners);
+      sum += throughput * exposure * blender_lights(&cur, I, F, scene_lights, scene_light_count,
+                                                     eps, bounds, links, corners, &rng);
       /* 2. A cosine-weighted direction: it either reaches the World (MIS-weighted against the
        * environment sample above) or, within the bounce limit, continues the path. */
       float u0 = rand01(&rng), u1 = rand01(&rng);

@@ -22,7 +22,8 @@ from ..core.analytic import LambertianBTF
 from ..core.codecs import load_btf
 from ..core.errors import BTFError
 from ..core.model import BTF
-from ..render.scene import Camera, Material, Mesh, Scene, SunLight
+from ..render.lights import AreaLight, Light, PointLight, SunLight
+from ..render.scene import Camera, Material, Mesh, Scene
 from ..render.tangents import corner_tangents
 from .world import environment_from_world
 
@@ -73,6 +74,44 @@ def export_material(material, messages: list[str]) -> tuple[Material, str]:
     if colour not in _fallback_cache:  # one BTF object per colour: its GPU upload is reused
         _fallback_cache[colour] = LambertianBTF(colour)
     return Material(_fallback_cache[colour], name=name), ""
+
+
+def export_light(light, world: np.ndarray, messages: list[str]) -> Light | None:
+    """A Blender light → render/lights.py in Cycles' units (power in watts, colour, exposure)."""
+    strength = np.array(light.color, dtype=np.float64) * light.energy
+    strength *= 2.0 ** getattr(light, "exposure", 0.0)  # Blender 4.x+ lights have exposure
+    axes = world[:3, :3]
+    position = world[:3, 3].copy()
+    minus_z = -axes[:, 2] / max(np.linalg.norm(axes[:, 2]), 1e-30)
+    if light.type == "SUN":
+        return SunLight(-minus_z, strength)
+    if light.type in {"POINT", "SPOT"}:
+        spot = {}
+        if light.type == "SPOT":
+            spot = dict(
+                axis=minus_z,
+                cos_half_angle=math.cos(light.spot_size / 2),
+                blend=float(light.spot_blend),
+            )
+        return PointLight.from_power(
+            position, strength, radius=float(light.shadow_soft_size), **spot
+        )
+    if light.type == "AREA":
+        if getattr(light, "spread", math.pi) < math.pi - 1e-6:
+            messages.append(f"area light {light.name!r}: spread is rendered as 180°")
+        rectangular = light.shape in {"RECTANGLE", "ELLIPSE"}
+        size_y = light.size_y if rectangular else light.size
+        # The object's scale stretches the light, as in Cycles.
+        return AreaLight.from_power(
+            position,
+            minus_z,
+            axes[:, 0] * light.size / 2,
+            axes[:, 1] * size_y / 2,
+            strength,
+            ellipse=light.shape in {"DISK", "ELLIPSE"},
+        )
+    messages.append(f"{light.type.lower()} light {light.name!r} is not supported")
+    return None
 
 
 def export_mesh(obj, slot_uv_names: list[str], messages: list[str]) -> list[Mesh]:
@@ -203,23 +242,13 @@ def export_scene(
     materials: list[Material] = []
     material_ids: dict[str, tuple[int, str]] = {}
     meshes: list[Mesh] = []
-    suns: list[SunLight] = []
+    lights: list[Light] = []
     for inst in depsgraph.object_instances:
         obj = inst.object
         if obj.type == "LIGHT":
-            light = obj.data
-            if light.type == "SUN":
-                towards = np.array(inst.matrix_world.to_3x3().col[2], dtype=np.float64)
-                suns.append(
-                    SunLight(
-                        towards / np.linalg.norm(towards),
-                        np.array(light.color, dtype=np.float64) * light.energy,
-                    )
-                )
-            else:
-                message = f"{light.type.lower()} light {obj.name!r} is not rendered yet (sun only)"
-                if message not in messages:
-                    messages.append(message)
+            light = export_light(obj.data, np.array(inst.matrix_world, dtype=np.float64), messages)
+            if light is not None:
+                lights.append(light)
             continue
         if obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
             continue
@@ -255,7 +284,7 @@ def export_scene(
         camera = Camera(np.eye(4))
     else:
         camera = export_camera(scene, width, height)
-    return Scene(meshes, materials, camera, env, messages, suns)
+    return Scene(meshes, materials, camera, env, messages, lights)
 
 
 def changed_ids(depsgraph) -> tuple[set[str], set[str], bool]:

@@ -17,6 +17,7 @@ from ..core.envmap import VirtualLights
 from ..gl.tables import pack
 from ..render.analysis import SceneFeatures, analyse
 from ..render.bvh import build_bvh
+from ..render.lights import pack_lights
 from ..render.scene import Scene
 from .context import CLContext
 from .programs import build_program
@@ -58,12 +59,9 @@ class CLRenderer:
         env = scene.environment
         rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
         self.env = self._buffer(rgba.ravel(), np.float32)
+        self.scene_lights = self._buffer(pack_lights(scene.lights).ravel(), np.float32)
+        self.scene_light_count = np.int32(len(scene.lights))
         # The environment's sampling tables, exactly those of core/envmap.py.
-        sun_data = np.zeros((max(len(scene.suns), 1), 8), dtype=np.float32)
-        for i, sun in enumerate(scene.suns):
-            sun_data[i, :3], sun_data[i, 4:7] = sun.direction, sun.irradiance
-        self.suns = self._buffer(sun_data.ravel(), np.float32)
-        self.sun_count = np.int32(len(scene.suns))
         self.env_tables = [
             self._buffer(a.ravel(), np.float32)
             for a in (env.row_cdf, env.col_cdf, env.row_pdf, env.col_pdf)
@@ -134,15 +132,15 @@ class CLRenderer:
         ]
 
     def _env_args(self) -> list:
-        """The World and the sun lights."""
+        """The World and Blender's lights."""
         env = self.scene.environment
         return [
             self.env,
             np.int32(env.width),
             np.int32(env.height),
             np.array([env.rotation_z_rad, 1.0], dtype=np.float32),
-            self.suns,
-            self.sun_count,
+            self.scene_lights,
+            self.scene_light_count,
         ]
 
     def _world_from_clip(self):

@@ -3,7 +3,9 @@
 Shadows: a ray towards a light can only be blocked by geometry. With a single convex mesh no
 point of it can shadow another (a point's own side facing away from the light is already dark
 by n·l), so shadow rays are skipped; any second mesh, or a non-convex one, turns them on.
-The result becomes ``-D`` defines (few variants: BlendLuxCore's users' first complaint).
+The same argument holds for point and area lights outside the mesh. Area-light sampling is
+compiled only when the scene has an area light. The result becomes ``-D`` defines (few
+variants: BlendLuxCore's users' first complaint).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .lights import AreaLight
 from .scene import Scene
 
 #: Above this many face × vertex tests, convexity is not checked and shadows stay on.
@@ -23,9 +26,10 @@ class SceneFeatures:
     shadows: bool
     environment_texture: bool
     codecs: frozenset[str]
+    area_lights: bool = False
 
     def defines(self) -> dict[str, int]:
-        return {"HAS_SHADOWS": int(self.shadows)}
+        return {"HAS_SHADOWS": int(self.shadows), "HAS_AREA_LIGHTS": int(self.area_lights)}
 
 
 def is_convex(corners: np.ndarray, tolerance: float = 1e-4) -> bool:
@@ -58,4 +62,5 @@ def analyse(scene: Scene) -> SceneFeatures:
         shadows=shadows,
         environment_texture=env.width * env.height > 1,
         codecs=frozenset(scene.materials[m.material].btf.meta.codec for m in scene.meshes),
+        area_lights=any(isinstance(light, AreaLight) for light in scene.lights),
     )

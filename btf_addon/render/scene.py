@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.envmap import Environment
 from ..core.model import BTF
+from .lights import Light
 
 
 @dataclass
@@ -134,22 +135,13 @@ class Camera:
 
 
 @dataclass
-class SunLight:
-    """A distant light: ``direction`` (3,) unit, from the surface towards the light, world space;
-    ``irradiance`` (3,) RGB W/m² measured perpendicular to it (Blender's Sun strength × colour)."""
-
-    direction: np.ndarray
-    irradiance: np.ndarray
-
-
-@dataclass
 class Scene:
     meshes: list[Mesh]
     materials: list[Material]
     camera: Camera
     environment: Environment
     messages: list[str] = field(default_factory=list)
-    suns: list[SunLight] = field(default_factory=list)
+    lights: list[Light] = field(default_factory=list)  # Blender lights: render/lights.py
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:

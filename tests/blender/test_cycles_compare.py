@@ -19,6 +19,10 @@ from btf_addon.core.imageio import read_exr
 SIZE = (48, 36)
 
 
+def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((image - reference) ** 2)) / np.sqrt(np.mean(reference**2)))
+
+
 def cycles_material(bpy, kind: str):
     material = bpy.data.materials.new(kind)
     nodes, links = material.node_tree.nodes, material.node_tree.links
@@ -128,7 +132,7 @@ def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
     cl_renderer = extension_submodule("btf_addon.cl.renderer")
     cl_context = extension_submodule("btf_addon.cl.context")
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), *SIZE)
-    assert len(exported.suns) == 1
+    assert len(exported.lights) == 1
     renderer = cl_renderer.CLRenderer(exported, *SIZE, cl_context.create_context())
     ours = renderer.render_sampled(4, seed=1)[..., :3]
     direct = renderer.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
@@ -136,3 +140,56 @@ def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
     assert float(np.sqrt(np.mean(diff**2)) / np.sqrt(np.mean(reference**2))) < 0.02
     np.testing.assert_allclose(direct, ours, rtol=1e-4, atol=1e-5)  # both modes light the sun
     assert reference.max() > 0.1  # lit, with a shadow on the ground
+
+
+def add_light(bpy, scene, kind: str):
+    """One light of each kind Blender has besides the Sun, placed to light the sphere and
+    throw its shadow onto the ground; the spot's blend exercises the smoothstep edge."""
+    data = bpy.data.lights.new(kind, kind)
+    if kind == "POINT":
+        data.energy, data.shadow_soft_size = 300.0, 0.0
+        location, rotation = (2.0, -1.5, 2.5), (0.0, 0.0, 0.0)
+    elif kind == "SPOT":
+        data.energy, data.shadow_soft_size = 600.0, 0.0
+        data.spot_size, data.spot_blend = math.radians(50.0), 0.4
+        location, rotation = (0.0, -2.0, 4.0), (math.radians(26.0), 0.0, 0.0)
+    else:
+        data.energy, data.shape = 400.0, "RECTANGLE"
+        data.size, data.size_y = 1.5, 0.6
+        location, rotation = (-2.0, -1.0, 2.5), (math.radians(-30.0), math.radians(-40.0), 0.0)
+    obj = bpy.data.objects.new(kind, data)
+    obj.location, obj.rotation_euler = location, rotation
+    scene.collection.objects.link(obj)
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "AREA"])
+def test_blender_lights_match_cycles(bpy_module, fresh_scene, tmp_path, kind):
+    """Point (radius 0), spot (blend 0.4) and rectangular area lights over the sphere and its
+    ground, black World, direct light only. Measured: 0.39 % (point), 0.52 % (spot), 0.83 %
+    (area) relative RMSE, which is the two estimates' noise at 1024 samples; the 2 % bound
+    leaves room for other seeds and drivers. A wrong unit (the 4π, or π·area) or a wrong spot
+    edge is off by far more."""
+    bpy = bpy_module
+    scene = build(bpy, tmp_path, "diffuse", ground=True)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    add_light(bpy, scene, kind)
+    reference = cycles_reference(bpy, scene, tmp_path, 1024, 0)
+    export = extension_submodule("btf_addon.blender.export")
+    cl_renderer = extension_submodule("btf_addon.cl.renderer")
+    cl_context = extension_submodule("btf_addon.cl.context")
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), *SIZE)
+    assert len(exported.lights) == 1 and not exported.messages
+    renderer = cl_renderer.CLRenderer(exported, *SIZE, cl_context.create_context())
+    assert renderer.features.area_lights == (kind == "AREA")
+    ours = renderer.render_sampled(1024, seed=2)[..., :3]
+    assert reference.max() > 0.05
+    error = relative_rmse(ours, reference)
+    print(f"{kind}: sampled {error:.4f}")  # quoted in docs/accuracy.md (pytest -s)
+    assert error < 0.02
+    np.testing.assert_allclose(ours.mean(axis=(0, 1)), reference.mean(axis=(0, 1)), rtol=0.01)
+    # The deterministic mode lights from fixed points (an area light's 4 × 4 cell centres):
+    # exact for delta lights, close for the area light.
+    direct = renderer.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
+    error = relative_rmse(direct, reference)
+    print(f"{kind}: deterministic {error:.4f}")
+    assert error < (0.03 if kind == "AREA" else 0.02)
