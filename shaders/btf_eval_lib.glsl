@@ -37,5 +37,20 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   float denom = 1.0 + (alpha2 - 1.0) * cos_h * cos_h;
   float d = alpha2 / (3.14159265358979 * denom * denom);
   float g = 1.0 / (1.0 + ggx_lambda(alpha2, wi.z) + ggx_lambda(alpha2, wo.z));
-  return albedo * (d * g / (4.0 * max(wo.z, 1e-6)));
+  float ggx = d * g / (4.0 * max(wo.z, 1e-6));
+  if (codec == CODEC_GGX) {
+    return albedo * ggx;
+  }
+  /* CODEC_PRINCIPLED, as PrincipledBTF in btf_addon/core/analytic.py */
+  float metallic = ftab(F_METALLIC), sigma = ftab(F_DIFFUSE_ROUGHNESS);
+  float f0d = ftab(F_SPECULAR_F0);
+  vec3 f0 = f0d + (albedo - f0d) * metallic;
+  float cos_d = h_len > 1e-12 ? clamp(dot(h, wo) / h_len, 0.0, 1.0) : 0.0;
+  vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - cos_d, 5.0);
+  float s = dot(wi, wo) - wi.z * wo.z;
+  float a = 1.0 / (3.14159265358979 + (3.14159265358979 / 2.0 - 2.0 / 3.0) * sigma);
+  float ci_over_t = s > 0.0 ? wi.z / max(max(wi.z, wo.z), 1e-6) : wi.z;
+  float on = a * wi.z + sigma * a * s * ci_over_t;
+  float weight = (1.0 - metallic) * (1.0 - (f0d + (1.0 - f0d) * pow(1.0 - clamp(wo.z, 0.0, 1.0), 5.0)));
+  return weight * albedo * on + fresnel * ggx;
 }

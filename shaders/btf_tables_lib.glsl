@@ -56,8 +56,12 @@ float ftab(int i)
 #define F_HDR_VALUE 1
 #define F_ALBEDO 2 /* 3 floats */
 #define F_ALPHA2 5
+#define F_METALLIC 6
+#define F_DIFFUSE_ROUGHNESS 7
+#define F_SPECULAR_F0 8
 
 #define CODEC_MLVQ 1
 #define CODEC_LAMBERTIAN 2
 #define CODEC_GGX 3
 #define CODEC_DENSE 4
+#define CODEC_PRINCIPLED 5

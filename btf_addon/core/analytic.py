@@ -4,6 +4,12 @@
 ``GGXBTF``: microfacet GGX without Fresnel, as Cycles' Glossy BSDF (GGX): α = roughness²,
 D = α²/(π(1 + (α² − 1)cos²θh)²), height-correlated Smith G = 1/(1 + Λ(ωi) + Λ(ωo)) with
 Λ = (−1 + √(1 + α² tan²θ))/2, BRDF = tint·D·G/(4 cos θi cos θo); value = BRDF·cos θi.
+``PrincipledBTF``: what non-BTF materials render as (Blender's Principled BSDF inputs base colour,
+roughness, metallic, IOR and diffuse roughness), as in the OpenCL ray tracer seed: GGX
+Cook-Torrance specular with Schlick's Fresnel (F0 = dielectric F0 mixed towards the base colour by
+metallic) plus Fujii's Oren-Nayar diffuse (σ = diffuse roughness; σ = 0 is Lambertian), the
+diffuse weighted by (1 − metallic)(1 − F_dielectric(cos θo)) so that energy reflected by the
+specular layer is not also diffused. Smith G is the height-correlated one, as for ``GGXBTF``.
 """
 
 from __future__ import annotations
@@ -112,3 +118,87 @@ class GGXBTF(BTF):
     @classmethod
     def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> GGXBTF:
         return cls(params["albedo"], params["roughness"], tuple(params["tile_size_mm"]))
+
+
+def schlick(f0: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
+    """(3,) F0 and (M,) cosines → (M, 3) Schlick Fresnel."""
+    c = np.clip(cos_theta, 0.0, 1.0)[:, None]
+    return f0[None, :] + (1.0 - f0[None, :]) * (1.0 - c) ** 5
+
+
+def oren_nayar_fujii(wi: np.ndarray, wo: np.ndarray, sigma: float) -> np.ndarray:
+    """(M,) Fujii's improved Oren-Nayar factor, already times cos θi: cos θi·(A + B·s/t).
+    cos θi/t ≤ 1 keeps it bounded at grazing angles, where s/t alone grows without limit."""
+    ci, co = wi[:, 2], wo[:, 2]
+    s = np.sum(wi * wo, axis=1) - ci * co
+    t = np.where(s > 0.0, np.maximum(np.maximum(ci, co), MIN_COS), 1.0)
+    a = 1.0 / (np.pi + (np.pi / 2 - 2.0 / 3.0) * sigma)
+    return a * ci + sigma * a * s * np.where(s > 0.0, ci / t, ci)
+
+
+class PrincipledBTF(BTF):
+    def __init__(
+        self,
+        base_color: Any = 0.8,
+        roughness: float = 0.5,
+        metallic: float = 0.0,
+        diffuse_roughness: float = 0.0,
+        specular_f0: float = 0.04,
+        tile_size_mm: tuple[float, float] = (10.0, 10.0),
+    ):
+        for name, value in (
+            ("roughness", roughness),
+            ("metallic", metallic),
+            ("diffuse_roughness", diffuse_roughness),
+            ("specular_f0", specular_f0),
+        ):
+            if not np.isfinite(value) or not 0.0 <= value <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {value!r}")
+        self.base_color = _rgb(base_color, "base colour")
+        self.roughness, self.metallic = float(roughness), float(metallic)
+        self.diffuse_roughness, self.specular_f0 = float(diffuse_roughness), float(specular_f0)
+        alpha = max(self.roughness, MIN_ROUGHNESS) ** 2
+        self.alpha2 = alpha * alpha
+        self.meta = _analytic_meta("principled", tile_size_mm)
+
+    @property
+    def f0(self) -> np.ndarray:
+        return self.specular_f0 + (self.base_color - self.specular_f0) * self.metallic
+
+    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+        wi, wo = q.wi, q.wo
+        h = wi + wo
+        h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-12)
+        specular = (
+            schlick(self.f0, np.sum(h * wo, axis=1)) * ggx_value(wi, wo, self.alpha2)[:, None]
+        )
+        dielectric = np.full(3, self.specular_f0)
+        weight = (1.0 - self.metallic) * (1.0 - schlick(dielectric, wo[:, 2]))
+        diffuse = (
+            weight * self.base_color * oren_nayar_fujii(wi, wo, self.diffuse_roughness)[:, None]
+        )
+        return np.where(wi[:, 2:3] >= 0, diffuse + specular, 0.0)
+
+    def tables(self) -> dict[str, np.ndarray]:
+        return {"base_color": self.base_color.astype(np.float32)}
+
+    def params(self) -> dict[str, Any]:
+        return {
+            "base_color": self.base_color.tolist(),
+            "roughness": self.roughness,
+            "metallic": self.metallic,
+            "diffuse_roughness": self.diffuse_roughness,
+            "specular_f0": self.specular_f0,
+            "tile_size_mm": list(self.meta.tile_size_mm),
+        }
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> PrincipledBTF:
+        return cls(
+            params["base_color"],
+            params["roughness"],
+            params["metallic"],
+            params["diffuse_roughness"],
+            params["specular_f0"],
+            tuple(params["tile_size_mm"]),
+        )

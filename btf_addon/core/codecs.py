@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .analytic import GGXBTF, LambertianBTF
+from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from .dense import DenseBTF
 from .errors import BTFFormatError, UnsupportedBTFError
 from .microgeometry import MicrogeometryBTF
@@ -16,6 +16,7 @@ CODECS: dict[str, type] = {
     "dense": DenseBTF,
     "lambertian": LambertianBTF,
     "ggx": GGXBTF,
+    "principled": PrincipledBTF,
     "microgeometry": MicrogeometryBTF,
 }
 

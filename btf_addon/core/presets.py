@@ -7,12 +7,13 @@ from collections.abc import Callable
 from typing import Any
 
 from . import microgeometry
-from .analytic import GGXBTF, LambertianBTF
+from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from .model import BTF
 
 PRESETS: dict[str, Callable[..., BTF]] = {
     "lambertian": LambertianBTF,
     "ggx": GGXBTF,
+    "principled": PrincipledBTF,
     "woven": microgeometry.woven,
     "leather": microgeometry.leather,
 }

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.analytic import GGXBTF, LambertianBTF
+from ..core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from ..core.dense import DenseBTF
 from ..core.errors import UnsupportedBTFError
 from ..core.mlvq import MLVQBTF
@@ -25,8 +25,8 @@ from ..core.model import BTF
 
 TABLE_WIDTH = 4096
 HEADER_INTS = 40
-HEADER_FLOATS = 8
-CODEC_IDS = {"mlvq": 1, "lambertian": 2, "ggx": 3, "dense": 4}
+HEADER_FLOATS = 12
+CODEC_IDS = {"mlvq": 1, "lambertian": 2, "ggx": 3, "dense": 4, "principled": 5}
 MAGIC = 0xB7F1  # header check value, exact in float32
 MAX_EXACT_INT = 1 << 24
 
@@ -67,7 +67,17 @@ INT_HEADER = [
     "f_light_theta",
     "light_offsets",
 ]
-FLOAT_HEADER = ["value_scale", "hdr_value", "albedo_r", "albedo_g", "albedo_b", "alpha2"]
+FLOAT_HEADER = [
+    "value_scale",
+    "hdr_value",
+    "albedo_r",
+    "albedo_g",
+    "albedo_b",
+    "alpha2",
+    "metallic",
+    "diffuse_roughness",
+    "specular_f0",
+]
 
 
 @dataclass
@@ -155,6 +165,10 @@ def pack(btf: BTF) -> PackedTables:
         fh["albedo_r"], fh["albedo_g"], fh["albedo_b"] = btf.albedo
         if isinstance(btf, GGXBTF):
             fh["alpha2"] = btf.alpha2
+    elif isinstance(btf, PrincipledBTF):
+        fh["albedo_r"], fh["albedo_g"], fh["albedo_b"] = btf.base_color
+        fh["alpha2"], fh["metallic"] = btf.alpha2, btf.metallic
+        fh["diffuse_roughness"], fh["specular_f0"] = btf.diffuse_roughness, btf.specular_f0
     int_stream = np.concatenate(
         [
             np.array(

@@ -18,8 +18,11 @@ enum {
   H_F_PDF4_SCALE, H_F_PDF6_SCALE, H_F_BETA, H_N_LIGHTS, H_F_DATA, H_N_VIEW_RINGS, H_F_VIEW_THETA,
   H_VIEW_OFFSETS, H_N_LIGHT_RINGS, H_F_LIGHT_THETA, H_LIGHT_OFFSETS
 };
-enum { F_VALUE_SCALE = 0, F_HDR_VALUE = 1, F_ALBEDO = 2, F_ALPHA2 = 5 };
-enum { CODEC_MLVQ = 1, CODEC_LAMBERTIAN = 2, CODEC_GGX = 3, CODEC_DENSE = 4 };
+enum {
+  F_VALUE_SCALE = 0, F_HDR_VALUE = 1, F_ALBEDO = 2, F_ALPHA2 = 5, F_METALLIC = 6,
+  F_DIFFUSE_ROUGHNESS = 7, F_SPECULAR_F0 = 8
+};
+enum { CODEC_MLVQ = 1, CODEC_LAMBERTIAN = 2, CODEC_GGX = 3, CODEC_DENSE = 4, CODEC_PRINCIPLED = 5 };
 
 typedef __global const float *Stream;
 
@@ -251,7 +254,23 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   float denom = 1.0f + (alpha2 - 1.0f) * cos_h * cos_h;
   float d = alpha2 / (M_PI_F * denom * denom);
   float g = 1.0f / (1.0f + ggx_lambda(alpha2, wi.z) + ggx_lambda(alpha2, wo.z));
-  return albedo * (d * g / (4.0f * fmax(wo.z, 1e-6f)));
+  float ggx = d * g / (4.0f * fmax(wo.z, 1e-6f));
+  if (codec == CODEC_GGX) {
+    return albedo * ggx;
+  }
+  /* CODEC_PRINCIPLED, as PrincipledBTF in btf_addon/core/analytic.py */
+  float metallic = FTAB(F_METALLIC), sigma = FTAB(F_DIFFUSE_ROUGHNESS);
+  float f0d = FTAB(F_SPECULAR_F0);
+  float3 f0 = f0d + (albedo - f0d) * metallic;
+  float cos_d = h_len > 1e-12f ? clamp(dot(h, wo) / h_len, 0.0f, 1.0f) : 0.0f;
+  float3 fresnel = f0 + (1.0f - f0) * pown(1.0f - cos_d, 5);
+  float s = dot(wi, wo) - wi.z * wo.z;
+  float a = 1.0f / (M_PI_F + (M_PI_F / 2.0f - 2.0f / 3.0f) * sigma);
+  float ci_over_t = s > 0.0f ? wi.z / fmax(fmax(wi.z, wo.z), 1e-6f) : wi.z;
+  float on = a * wi.z + sigma * a * s * ci_over_t;
+  float weight = (1.0f - metallic) * (1.0f - (f0d + (1.0f - f0d) *
+                                               pown(1.0f - clamp(wo.z, 0.0f, 1.0f), 5)));
+  return weight * albedo * on + fresnel * ggx;
 }
 
 inline float2 btf_theta_phi_deg(float3 d)

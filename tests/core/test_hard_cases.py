@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from helpers import shared_material
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from btf_addon.core.dense import tabulate
 from btf_addon.core.microgeometry import woven
 from btf_addon.core.mlvq import MLVQBTF
@@ -18,6 +18,7 @@ def _codecs():
     yield "lambertian", lambda: LambertianBTF(0.8)
     yield "ggx", lambda: GGXBTF(0.8, 0.3)
     yield "ggx-rough0", lambda: GGXBTF(0.8, 0.0)
+    yield "principled", lambda: PrincipledBTF((0.9, 0.6, 0.3), 0.5, 0.5, 1.0)
     yield "dense", lambda: tabulate(LambertianBTF(0.6))
     yield "woven", lambda: woven(texels=4, fine_per_texel=4)
     yield "mlvq", lambda: MLVQBTF.from_directory(shared_material("alu"))

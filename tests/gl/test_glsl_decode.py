@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from helpers import random_queries, shared_material
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from btf_addon.core.errors import UnsupportedBTFError
 from btf_addon.core.microgeometry import woven
 from btf_addon.core.mlvq import MLVQBTF
@@ -32,7 +32,13 @@ def test_glsl_decode_matches_numpy_within_one_8bit_step(gl_ctx, rng, name):
 
 
 @pytest.mark.parametrize(
-    "btf", [LambertianBTF((0.8, 0.5, 0.2)), GGXBTF((0.9, 0.6, 0.3), 0.4)], ids=["lambertian", "ggx"]
+    "btf",
+    [
+        LambertianBTF((0.8, 0.5, 0.2)),
+        GGXBTF((0.9, 0.6, 0.3), 0.4),
+        PrincipledBTF((0.9, 0.6, 0.3), 0.4, 0.3, 0.7),
+    ],
+    ids=["lambertian", "ggx", "principled"],
 )
 def test_glsl_analytic_presets_match(gl_ctx, rng, btf):
     from btf_addon.gl.query import GLSLBTF

@@ -8,7 +8,7 @@ from helpers import random_queries, shared_material
 
 from btf_addon.cl import programs
 from btf_addon.cl.devices import list_devices
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from btf_addon.core.dense import tabulate
 from btf_addon.core.errors import UnsupportedBTFError
 from btf_addon.core.grid import uniform_ring_grid
@@ -42,6 +42,7 @@ def _btfs():
         "wallpaper": lambda: MLVQBTF.from_directory(shared_material("wallpaper")),
         "lambertian": lambda: LambertianBTF((0.8, 0.5, 0.2)),
         "ggx": lambda: GGXBTF((0.9, 0.7, 0.5), 0.35),
+        "principled": lambda: PrincipledBTF((0.9, 0.6, 0.3), 0.4, 0.3, 0.7),
         "dense": lambda: tabulate(
             woven(texels=4, fine_per_texel=4), uniform_ring_grid(20.0), uniform_ring_grid(15.0)
         ),
