@@ -8,7 +8,15 @@ from __future__ import annotations
 
 import importlib
 
-MODULES = ("preferences", "properties", "render_settings", "operators", "engine", "ui")
+MODULES = (
+    "preferences",
+    "properties",
+    "render_settings",
+    "operators",
+    "import_btf",
+    "engine",
+    "ui",
+)
 
 
 def _modules():

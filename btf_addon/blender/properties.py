@@ -27,15 +27,6 @@ class BTFMaterialSettings(PropertyGroup):
         default="",
         description="UV map for the BTF; empty uses the active render UV map",
     )
-    tile_size_mm: FloatProperty(
-        name="Tile Size",
-        default=0.0,
-        min=0.0,
-        soft_max=1000.0,
-        unit="LENGTH",
-        subtype="DISTANCE",
-        description="Physical size of one texture repeat; 0 uses the BTF's own size",
-    )
     uv_scale: FloatProperty(
         name="UV Scale",
         default=1.0,

@@ -25,13 +25,14 @@ class BTF_PT_material(Panel):
         settings = context.material.btf
         layout = self.layout
         layout.use_property_split = True
-        layout.active = settings.enabled
-        layout.prop(settings, "source")
-        layout.prop(settings, "uv_map")
-        layout.prop(settings, "tile_size_mm")
-        layout.prop(settings, "uv_scale")
-        layout.prop(settings, "uv_rotation")
-        layout.prop(settings, "exposure")
+        layout.operator("btf.import_material", text="Import BTF…", icon="IMPORT")
+        col = layout.column()
+        col.active = settings.enabled
+        col.prop(settings, "source")
+        col.prop(settings, "uv_map")
+        col.prop(settings, "uv_scale")
+        col.prop(settings, "uv_rotation")
+        col.prop(settings, "exposure")
 
 
 class BTF_PT_render_settings(Panel):
