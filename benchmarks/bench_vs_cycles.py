@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from common import table
 
-TARGETS = (0.10, 0.05, 0.03)
+TARGETS = (0.10, 0.05, 0.02)
 
 
 def time_to_error(points: list[tuple[float, float]], target: float) -> float:

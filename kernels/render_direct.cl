@@ -179,9 +179,10 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
                                   eps);
   float rotation = env_params.x;
-  uint rng = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
+  uint pixel = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
   for (int si = 0; si < samples; si++) {
+    Sampler smp = {pixel, (uint)si, 0u, pcg_hash(pixel + (uint)si)};
     SurfacePoint cur = sp;
     float3 throughput = (float3)(1.0f);
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
@@ -191,7 +192,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       int pixel;
       /* 1. Next-event estimation: a direction from the environment's distribution. */
       {
-        float u0 = rand01(&rng), u1 = rand01(&rng);
+        float2 u = next_2d(&smp);
+        float u0 = u.x, u1 = u.y;
         int row = cdf_search(row_cdf, env_h, u0);
         float dt = (u0 - row_cdf[row]) / fmax(row_cdf[row + 1] - row_cdf[row], 1e-30f);
         __global const float *cc = col_cdf + row * (env_w + 1);
@@ -219,10 +221,11 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         }
       }
       sum += throughput * exposure * blender_lights(&cur, I, F, scene_lights, scene_light_count,
-                                                     eps, bounds, links, corners, &rng);
+                                                     eps, bounds, links, corners, &smp);
       /* 2. A cosine-weighted direction: it either reaches the World (MIS-weighted against the
        * environment sample above) or, within the bounce limit, continues the path. */
-      float u0 = rand01(&rng), u1 = rand01(&rng);
+      float2 uc = next_2d(&smp);
+      float u0 = uc.x, u1 = uc.y;
       float r = sqrt(u0), phi = 2.0f * M_PI_F * u1;
       float3 lo = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(1.0f - u0, 0.0f)));
       float3 dir = lo.x * cur.t + lo.y * cur.b + lo.z * cur.n;
@@ -253,7 +256,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       throughput = step;
       if (bounce >= 2) { /* Russian roulette keeps long paths unbiased and cheap */
         float keep = fmin(fmax(throughput.x, fmax(throughput.y, throughput.z)), 0.95f);
-        if (rand01(&rng) >= keep) {
+        if (rand01(&smp.rng) >= keep) {
           break;
         }
         throughput /= keep;

@@ -1,7 +1,7 @@
 /* Blender's lights at a surface point (layout and units: btf_addon/render/lights.py).
  *
  * Every light is reduced to samples "direction, distance, factor E" with the contribution
- * value(wi) · E, value being the BTF's (apparent BRDF × cos θi). Deterministic mode (rng == 0)
+ * value(wi) · E, value being the BTF's (apparent BRDF × cos θi). Deterministic mode (smp == 0)
  * lights from fixed points: a point light's centre, an AREA_GRID × AREA_GRID grid of cell
  * centres on an area light; the sampled mode draws one random point per light and sample. */
 #ifndef BTF_LIGHTS_H
@@ -78,25 +78,25 @@ inline float3 light_sample(__global const float *L, float3 p, float2 u, bool jit
   return rgb * (mask / fmax(len * len, 1e-12f));
 }
 
-/* All Blender lights at a surface point; rng == 0 → deterministic points. Delta and area
+/* All Blender lights at a surface point; smp == 0 → deterministic points. Delta and area
  * lights cannot be hit by sampled directions (they are not geometry), so they take no part
  * in MIS. */
 inline float3 blender_lights(const SurfacePoint *sp, Stream I, Stream F,
                              __global const float *lights, int count, float eps,
                              __global const float *bounds, __global const int *links,
-                             __global const float *corners, uint *rng)
+                             __global const float *corners, Sampler *smp)
 {
   float3 sum = (float3)(0.0f);
   for (int i = 0; i < count; i++) {
     __global const float *L = lights + LIGHT_FLOATS * i;
-    int n = (!rng && (int)L[3] == TYPE_AREA) ? AREA_GRID * AREA_GRID : 1;
+    int n = (!smp && (int)L[3] == TYPE_AREA) ? AREA_GRID * AREA_GRID : 1;
     for (int k = 0; k < n; k++) {
-      float2 u = rng ? (float2)(rand01(rng), rand01(rng))
+      float2 u = smp ? next_2d(smp)
                      : (float2)(((k % AREA_GRID) + 0.5f) / AREA_GRID,
                                 ((k / AREA_GRID) + 0.5f) / AREA_GRID);
       float3 dir;
       float dist;
-      float3 e = light_sample(L, sp->start, u, rng != 0, &dir, &dist);
+      float3 e = light_sample(L, sp->start, u, smp != 0, &dir, &dist);
       float3 wi = to_frame(sp, dir);
       if (wi.z <= 0.0f || !(e.x + e.y + e.z > 0.0f)) {
         continue;

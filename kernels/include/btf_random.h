@@ -1,4 +1,12 @@
-/* Per-pixel random numbers for the Monte Carlo paths (PCG hash, O'Neill 2014). */
+/* Random numbers for the Monte Carlo paths.
+ *
+ * pcg_hash / rand01: a hash-based generator (O'Neill 2014) for decisions that need no
+ * stratification (Russian roulette). Sampler / next_2d: the first two Sobol dimensions with
+ * hash-based Owen scrambling and a per-dimension shuffle of the sample order (Burley 2020,
+ * "Practical Hash-based Owen Scrambling"): every 2D decision of a path (environment sample,
+ * light sample, direction sample at each vertex) gets its own randomised (0, 2)-sequence, so the
+ * first 2^k samples of a pixel stratify each of them, and the error falls faster than with
+ * independent random numbers while staying unbiased. */
 #ifndef BTF_RANDOM_H
 #define BTF_RANDOM_H
 
@@ -13,6 +21,56 @@ inline float rand01(uint *state)
 {
   *state = pcg_hash(*state);
   return (float)(*state >> 8) * (1.0f / 16777216.0f);
+}
+
+inline uint reverse_bits(uint x)
+{
+  x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+  x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+  x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+  x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+  return (x >> 16) | (x << 16);
+}
+
+/* Owen scrambling of a 32-bit fraction: a hash that only lets higher bits affect lower ones,
+ * applied in reversed-bit order. */
+inline uint owen_scramble(uint x, uint seed)
+{
+  x = reverse_bits(x);
+  x += seed;
+  x ^= x * 0x6c50b47cu;
+  x ^= x * 0xb82f1e52u;
+  x ^= x * 0xc7afe638u;
+  x ^= x * 0x8d22f6e6u;
+  return reverse_bits(x);
+}
+
+/* Sobol's second dimension (the first is the bit-reversed index). */
+inline uint sobol_dim1(uint index)
+{
+  uint result = 0u, v = 1u << 31;
+  for (; index; index >>= 1, v ^= v >> 1) {
+    if (index & 1u) {
+      result ^= v;
+    }
+  }
+  return result;
+}
+
+typedef struct {
+  uint pixel; /* hashed pixel and render seed */
+  uint index; /* sample number within the pixel */
+  uint dim;   /* 2D decisions taken so far on this path */
+  uint rng;   /* for rand01 */
+} Sampler;
+
+inline float2 next_2d(Sampler *s)
+{
+  uint seed = pcg_hash(s->pixel ^ pcg_hash(s->dim++ * 0x9E3779B9u + 0x632BE5ABu));
+  uint i = owen_scramble(s->index, seed); /* shuffled order: decorrelates the dimensions */
+  uint x = owen_scramble(reverse_bits(i), pcg_hash(seed ^ 0xA511E9B3u));
+  uint y = owen_scramble(sobol_dim1(i), pcg_hash(seed ^ 0x63D83595u));
+  return (float2)((float)(x >> 8), (float)(y >> 8)) * (1.0f / 16777216.0f);
 }
 
 #endif
