@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import importlib.util
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -65,3 +67,19 @@ def random_queries(rng: np.random.Generator, n: int) -> np.ndarray:
             rng.random(n) * 360,
         ]
     )
+
+
+def run_cli(*args, check=True, cwd=ROOT):
+    env = cli_env()
+    proc = subprocess.run(
+        [sys.executable, "-m", "btf_addon", *map(str, args)],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=600,
+        env=env,
+    )
+    if check:
+        assert proc.returncode == 0, proc.stderr
+    return proc

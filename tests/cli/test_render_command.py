@@ -8,27 +8,11 @@ import textwrap
 
 import numpy as np
 import pytest
-from helpers import ROOT, cli_env
+from helpers import ROOT, cli_env, run_cli
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.container import write_container
 from btf_addon.core.imageio import read_exr
-
-
-def run_cli(*args, check=True, cwd=ROOT):
-    env = cli_env()
-    proc = subprocess.run(
-        [sys.executable, "-m", "btf_addon", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=600,
-        env=env,
-    )
-    if check:
-        assert proc.returncode == 0, proc.stderr
-    return proc
 
 
 def make_blend(path, script: str) -> None:
