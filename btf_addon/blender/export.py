@@ -223,6 +223,9 @@ def export_camera(scene, width: int, height: int) -> Camera:
         sensor = cam.sensor_width
     else:
         sensor = cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height
+    # Blender measures shift in units of the sensor-fit dimension; Camera in the larger one.
+    shift_factor = (aspect if fit == "HORIZONTAL" else 1.0) / max(aspect, 1.0)
+    shift = (cam.shift_x * shift_factor, cam.shift_y * shift_factor)
     if cam.type == "ORTHO":
         larger = (
             cam.ortho_scale
@@ -235,7 +238,7 @@ def export_camera(scene, width: int, height: int) -> Camera:
             ortho_scale=larger,
             clip_start=cam.clip_start,
             clip_end=cam.clip_end,
-            shift=(cam.shift_x, cam.shift_y),
+            shift=shift,
         )
     half = sensor / 2 / cam.lens
     half_h = half / aspect if fit == "HORIZONTAL" else half
@@ -247,7 +250,7 @@ def export_camera(scene, width: int, height: int) -> Camera:
         2 * math.atan(half_h),
         clip_start=cam.clip_start,
         clip_end=cam.clip_end,
-        shift=(cam.shift_x, cam.shift_y),
+        shift=shift,
     )
 
 
