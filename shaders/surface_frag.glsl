@@ -5,7 +5,10 @@
  * camera: xyz = camera position, w = 1 (perspective); or xyz = direction towards the camera,
  *         w = 0 (orthographic).
  * uv_transform: mat2 (column-major in a vec4) from mesh UVs to BTF texture coordinates.
- * light_range: x = first light, y = how many, z = exposure multiplier. */
+ * light_range: x = first light, y = how many, z = exposure multiplier, w = how many Blender
+ *              lights scene_lights holds (shaders/scene_lights_lib.glsl). Each batch adds them
+ *              × its light count, so the resolve's division by the lights so far leaves them
+ *              added exactly once at every stage of the accumulation. */
 
 vec3 to_tangent(vec3 d, vec3 t, vec3 b, vec3 n)
 {
@@ -42,6 +45,10 @@ void main()
     }
     vec2 light = theta_phi_deg(wi);
     sum += btf_evaluate(uv, light.x, light.y, view.x, view.y) * weight;
+  }
+  int blender_lights = int(light_range.w);
+  if (count > 0 && blender_lights > 0 && wo.z > 0.0) {
+    sum += float(count) * scene_lights_sum(blender_lights, v_world, t, b, n, uv, view);
   }
   frag_color = vec4(sum * light_range.z, 1.0);
 }

@@ -22,6 +22,7 @@ from ..gl.interface import (
     ShaderInterface,
 )
 from ..gl.tables import pack
+from ..render.lights import pack_lights
 from ..render.progressive import ProgressiveState
 from ..render.scene import Scene
 
@@ -112,6 +113,8 @@ class SceneDrawer:
         self.quad_bg = batch_for_shader(self.background_shader, "TRIS", {"pos": QUAD})
         self.quad_resolve = batch_for_shader(self.resolve_shader, "TRIS", {"pos": QUAD})
         self.lights_tex = None
+        # Blender's lights: five RGBA texels each (render/lights.py), drawn without shadows.
+        self.scene_lights_tex = texture(pack_lights(scene.lights).reshape(1, -1, 4), "RGBA32F")
         self.state: ProgressiveState | None = None
 
     def _batch(self, mesh):
@@ -163,9 +166,11 @@ class SceneDrawer:
             sh.uniform_sampler("btf_int_tables", ints)
             sh.uniform_sampler("btf_float_tables", floats)
             sh.uniform_sampler("lights", self.lights_tex)
+            sh.uniform_sampler("scene_lights", self.scene_lights_tex)
             m = material.uv_transform()
             sh.uniform_float("uv_transform", (m[0, 0], m[1, 0], m[0, 1], m[1, 1]))
-            sh.uniform_float("light_range", (first, count, 2.0**material.exposure, 0.0))
+            exposure = 2.0**material.exposure
+            sh.uniform_float("light_range", (first, count, exposure, len(self.scene.lights)))
             batch.draw(sh)
         gpu.state.color_mask_set(True, True, True, True)
         gpu.state.depth_mask_set(True)

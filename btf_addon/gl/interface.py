@@ -145,6 +145,7 @@ SURFACE_SHADER = ShaderInterface(
         (0, "FLOAT_2D", "btf_int_tables"),
         (1, "FLOAT_2D", "btf_float_tables"),
         (2, "FLOAT_2D", "lights"),
+        (3, "FLOAT_2D", "scene_lights"),
     ),
     push_constants=(
         ("MAT4", "clip_from_world"),
@@ -153,7 +154,7 @@ SURFACE_SHADER = ShaderInterface(
         ("VEC4", "light_range"),
     ),
     varyings=(("VEC3", "v_world"), ("VEC3", "v_normal"), ("VEC2", "v_uv"), ("VEC4", "v_tangent")),
-    libraries=BTF_LIBRARIES,
+    libraries=(*BTF_LIBRARIES, "scene_lights_lib.glsl"),
     vertex_file="surface_vert.glsl",
     fragment_file="surface_frag.glsl",
 )

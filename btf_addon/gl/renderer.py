@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.envmap import VirtualLights
+from ..render.lights import pack_lights
 from ..render.progressive import ProgressiveState
 from ..render.scene import Scene
 from .interface import BACKGROUND_SHADER, SURFACE_SHADER
@@ -47,6 +48,11 @@ class GLSLRenderer:
         quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
         self.quad = ctx.vertex_array(self.background, [(ctx.buffer(quad.tobytes()), "2f", "pos")])
         self.lights_tex = None
+        scene_lights = pack_lights(scene.lights)  # (n, 20) = five RGBA texels per light
+        self.scene_lights_tex = ctx.texture(
+            (len(scene_lights) * 5, 1), 4, scene_lights.tobytes(), dtype="f4"
+        )
+        self.scene_lights_tex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.state: ProgressiveState | None = None
 
     # --- uploads ----------------------------------------------------------------------------
@@ -103,11 +109,22 @@ class GLSLRenderer:
             floats.use(1)
             if self.lights_tex is not None:
                 self.lights_tex.use(2)
-            for name, slot in (("btf_int_tables", 0), ("btf_float_tables", 1), ("lights", 2)):
+            self.scene_lights_tex.use(3)
+            for name, slot in (
+                ("btf_int_tables", 0),
+                ("btf_float_tables", 1),
+                ("lights", 2),
+                ("scene_lights", 3),
+            ):
                 self.surface[name].value = slot
             m = material.uv_transform()
             self.surface["uv_transform"].value = (m[0, 0], m[1, 0], m[0, 1], m[1, 1])
-            self.surface["light_range"].value = (first, count, 2.0**material.exposure, 0.0)
+            self.surface["light_range"].value = (
+                first,
+                count,
+                2.0**material.exposure,
+                len(self.scene.lights),
+            )
             vao.render()
 
     def render_pass(self) -> int:
@@ -152,5 +169,13 @@ class GLSLRenderer:
         return self.resolve()
 
     def release(self) -> None:
-        for obj in (self.color, self.depth, self.fbo, self.bg_color, self.bg_fbo, self.env_tex):
+        for obj in (
+            self.color,
+            self.depth,
+            self.fbo,
+            self.bg_color,
+            self.bg_fbo,
+            self.env_tex,
+            self.scene_lights_tex,
+        ):
             obj.release()

@@ -102,6 +102,26 @@ def test_f12_without_opencl_falls_back_to_glsl(bpy_module, fresh_scene, tmp_path
     assert rendered[32, 48].max() > 0.05  # the sphere is there and lit
 
 
+def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_path, without_opencl):
+    """Blender's gpu pipeline binds the light texture as moderngl's does: F12's GLSL fallback
+    with a point and a spot light equals the standalone renderer, and the lights show."""
+    from btf_addon.core.analytic import GGXBTF
+
+    bpy = bpy_module
+    write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
+    scene = build_scene(bpy, tmp_path, tmp_path / "ggx.btfm")
+    rendered_dark, _ = f12_and_reference(bpy, scene, tmp_path, engine="glsl")
+    for kind, location in (("POINT", (2.0, -2.0, 2.0)), ("SPOT", (0.0, -3.0, 3.0))):
+        light = bpy.data.objects.new(kind, bpy.data.lights.new(kind, kind))
+        light.data.energy = 500.0
+        light.location = location
+        light.rotation_euler = (math.radians(45.0), 0.0, 0.0)
+        scene.collection.objects.link(light)
+    rendered, reference = f12_and_reference(bpy, scene, tmp_path, engine="glsl")
+    assert np.abs(rendered - reference).max() < 1e-3 * reference.max()
+    assert rendered.mean() > rendered_dark.mean() * 1.1
+
+
 def test_f12_glsl_fallback_with_measured_btf(bpy_module, fresh_scene, tmp_path, without_opencl):
     """With nearest-texel BTF lookups, pixels exactly on texel edges may pick the neighbour in
     one pipeline and not the other: allow 5% of pixels to differ, the rest must agree."""
