@@ -159,7 +159,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              const float2 env_params, __global const float *scene_lights,
                              const int scene_light_count, __global const float *row_cdf,
                              __global const float *col_cdf, __global const float *row_pdf,
-                             __global const float *col_pdf, const int samples, const uint seed,
+                             __global const float *col_pdf, const int first_sample, const int samples,
+                             const uint seed,
                              const int max_bounces, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
@@ -182,7 +183,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   uint pixel = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
   for (int si = 0; si < samples; si++) {
-    Sampler smp = {pixel, (uint)si, 0u, pcg_hash(pixel + (uint)si)};
+    uint index = (uint)(first_sample + si); /* a sample's points depend only on its index */
+    Sampler smp = {pixel, index, 0u, pcg_hash(pixel + index)};
     SurfacePoint cur = sp;
     float3 throughput = (float3)(1.0f);
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {

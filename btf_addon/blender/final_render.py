@@ -58,15 +58,6 @@ def render(engine, depsgraph) -> None:
         engine.update_progress(fraction)
         return not engine.test_break()
 
-    settings = scene.btf_render
-    if settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT":
-        # Depth, normal and UV come from the deterministic kernel with one light (cheap).
-        passes = renderer.render_direct(lights.prefix(1))
-        passes.combined = renderer.render_sampled(
-            settings.samples, settings.seed, progress, max_bounces=settings.max_bounces
-        )
-    else:
-        passes = renderer.render_direct(lights, progress)
     view_layer = depsgraph.view_layer
     for enabled, name, channels, chan_id in (
         (view_layer.use_pass_z, "Depth", 1, "Z"),
@@ -77,6 +68,25 @@ def render(engine, depsgraph) -> None:
             engine.add_pass(name, channels, chan_id, layer=view_layer.name)
     result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
     layer = result.layers[0]
+
+    def show(combined: np.ndarray) -> None:
+        """Progressive display of the Sampled mode: the image after each pass."""
+        layer.passes["Combined"].rect = np.ascontiguousarray(combined[::-1]).reshape(w * h, 4)
+        engine.update_result(result)
+
+    settings = scene.btf_render
+    if settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT":
+        # Depth, normal and UV come from the deterministic kernel with one light (cheap).
+        passes = renderer.render_direct(lights.prefix(1))
+        passes.combined = renderer.render_sampled(
+            settings.samples,
+            settings.seed,
+            progress,
+            max_bounces=settings.max_bounces,
+            preview=show,
+        )
+    else:
+        passes = renderer.render_direct(lights, progress)
     bottom_first = {  # Blender's render buffers start at the bottom row
         "Combined": passes.combined,
         "Depth": passes.depth[..., None],

@@ -8,6 +8,7 @@ honoured between bands; device memory holds one band of passes at a time.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -22,7 +23,11 @@ from ..render.scene import Scene
 from .context import CLContext
 from .programs import build_program
 
-BAND_PIXELS = 1 << 17  # pixels per kernel launch: bounds device memory and cancel latency
+BAND_PIXELS = 1 << 17  # most pixels per kernel launch: bounds device memory
+FIRST_LAUNCH_PIXELS = 1 << 14  # the first launch measures the cost per pixel
+LAUNCH_SECONDS = 0.2  # target per launch: cancel answers within about this
+PASS_SECONDS = 2.0  # target per progressive pass of the Sampled mode (preview cadence)
+LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
 
 
 @dataclass
@@ -148,26 +153,76 @@ class CLRenderer:
         world_from_clip = np.linalg.inv(cam.clip_from_world(self.width / self.height))
         return self._buffer(world_from_clip.ravel(), np.float32)
 
-    def _run_bands(self, launch, channels: tuple[int, ...], progress) -> list[np.ndarray]:
-        """Render row bands: ``launch(row0, band, buffers)`` enqueues the kernel writing one
-        buffer per entry of ``channels``; returns (h, w, k) arrays. ``progress`` returning False
-        stops between bands (the remaining rows stay black)."""
+    def _global_size(self, rows: int) -> tuple[int, int]:
+        """Launch shape for ``rows`` rows: width rounded up to LOCAL_SIZE (the kernels skip
+        pixels past the edge). A fixed local size matters: PoCL compiles a kernel anew for
+        every work-group shape it picks itself, and band heights vary."""
+        lx = LOCAL_SIZE[0]
+        return (-(-self.width // lx) * lx, rows)
+
+    def _run_bands(
+        self, launch, channels: tuple[int, ...], progress, samples: int = 1, preview=None
+    ) -> list[np.ndarray]:
+        """Render in launches of (rows, samples) sized by measured cost, so that each takes
+        about LAUNCH_SECONDS however heavy a pixel is (lights, samples, bounces): progress is
+        reported and a cancel honoured between launches.
+
+        ``launch(row0, rows, first_sample, count, buffers)`` enqueues the kernel for those rows
+        and samples [first_sample, first_sample + count), writing per-pixel means, one buffer
+        per entry of ``channels``. Samples go in passes over the whole image (each pass about
+        PASS_SECONDS); ``preview(images)`` sees the image after every pass. ``progress``
+        returning False stops: rows keep the samples they have (rows never reached stay black).
+        Returns (h, w, k) arrays averaged over every sample rendered."""
         cl = self.cl
         w, h = self.width, self.height
-        rows = max(1, min(h, BAND_PIXELS // w))
+        max_rows = max(1, min(h, BAND_PIXELS // w))  # device memory: one band of passes
         mf = cl.mem_flags
-        buffers = [cl.Buffer(self.ctx.context, mf.WRITE_ONLY, rows * w * 4 * k) for k in channels]
-        images = [np.zeros((h, w, k), np.float32) for k in channels]
-        for row0 in range(0, h, rows):
-            band = min(rows, h - row0)
-            launch(row0, band, buffers)
-            for buf, image in zip(buffers, images, strict=True):
-                host = np.empty((band, w, image.shape[2]), dtype=np.float32)
-                cl.enqueue_copy(self.ctx.queue, host, buf)
-                image[row0 : row0 + band] = host
-            if progress is not None and not progress((row0 + band) / h):
-                break
-        return images
+        buffers = [
+            cl.Buffer(self.ctx.context, mf.WRITE_ONLY, max_rows * w * 4 * k) for k in channels
+        ]
+        sums = [np.zeros((h, w, k), np.float64) for k in channels]
+        counts = np.zeros(h, np.int64)  # samples rendered per row
+        cost = None  # seconds per pixel-sample, measured (decaying maximum)
+        last_work = 0  # rows × samples of the last launch
+        rows = max(1, min(max_rows, FIRST_LAUNCH_PIXELS // w))
+
+        def images():
+            weight = 1.0 / np.maximum(counts, 1)[:, None, None]
+            return [(total * weight).astype(np.float32) for total in sums]
+
+        first = 0
+        while first < samples:
+            count = 1
+            if cost is not None:
+                per_pass = PASS_SECONDS / (cost * w * h)
+                per_row = LAUNCH_SECONDS / (cost * w)
+                count = int(np.clip(min(per_pass, per_row), 1, samples - first))
+            row0 = 0
+            while row0 < h:
+                if cost is not None:
+                    # Costs differ across the image (sky rows are cheap): grow a launch at most
+                    # 2× over the last one, so a cheap region cannot talk it into a huge one.
+                    limit = min(max_rows, max(1, 2 * last_work // count))
+                    rows = int(np.clip(LAUNCH_SECONDS / (cost * w * count), 1, limit))
+                band = min(rows, h - row0)
+                t0 = time.perf_counter()
+                launch(row0, band, first, count, buffers)
+                for buf, total in zip(buffers, sums, strict=True):
+                    host = np.empty((band, w, total.shape[2]), dtype=np.float32)
+                    cl.enqueue_copy(self.ctx.queue, host, buf)  # waits for the kernel
+                    total[row0 : row0 + band] += host * count
+                counts[row0 : row0 + band] += count
+                measured = max(time.perf_counter() - t0, 1e-6) / (band * w * count)
+                cost = measured if cost is None else max(measured, 0.5 * cost)
+                last_work = band * count
+                row0 += band
+                done = (first * h + row0 * count) / (samples * h)
+                if progress is not None and not progress(done):
+                    return images()
+            first += count
+            if preview is not None and first < samples:
+                preview(images())
+        return images()
 
     def render_direct(
         self, lights: VirtualLights, progress: Callable[[float], bool] | None = None
@@ -182,11 +237,11 @@ class CLRenderer:
         tail_args = [lights_buf, np.int32(len(lights.pdf)), self.eps, *self._env_args()]
         wfc = self._world_from_clip()
 
-        def launch(row0, band, buffers):
+        def launch(row0, band, _first, _count, buffers):
             self.kernel(
                 self.ctx.queue,
-                (w, band),
-                None,
+                self._global_size(band),
+                LOCAL_SIZE,
                 *head,
                 np.int32(row0),
                 wfc,
@@ -205,11 +260,14 @@ class CLRenderer:
         seed: int = 0,
         progress: Callable[[float], bool] | None = None,
         max_bounces: int = 0,
+        preview: Callable[[np.ndarray], None] | None = None,
     ) -> np.ndarray:
         """(h, w, 4) Combined by path tracing: ``samples`` paths per pixel; at every vertex one
         environment sample and one cosine sample with MIS (power heuristic); up to
         ``max_bounces`` indirect reflections (none where the scene analysis finds no surface
-        that can see another), Russian roulette after the second."""
+        that can see another), Russian roulette after the second. Samples are rendered in
+        progressive passes (``preview`` sees each); the result does not depend on how they
+        were split (each sample's random points depend only on its index)."""
         w, h = self.width, self.height
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
@@ -218,24 +276,27 @@ class CLRenderer:
             self.eps,
             *self._env_args(),
             *self.env_tables,
-            np.int32(samples),
             np.uint32(seed),
             np.int32(bounces),
         ]
 
-        def launch(row0, band, buffers):
+        def launch(row0, band, first, count, buffers):
             self.kernel_mis(
                 self.ctx.queue,
-                (w, band),
-                None,
+                self._global_size(band),
+                LOCAL_SIZE,
                 np.int32(w),
                 np.int32(h),
                 np.int32(row0),
                 wfc,
                 *self._scene_args(),
-                *tail_args,
+                *tail_args[:-2],
+                np.int32(first),
+                np.int32(count),
+                *tail_args[-2:],
                 *buffers,
             )
 
-        (combined,) = self._run_bands(launch, (4,), progress)
+        show = None if preview is None else (lambda images: preview(images[0]))
+        (combined,) = self._run_bands(launch, (4,), progress, samples, show)
         return combined
