@@ -258,17 +258,18 @@ def export_camera(scene, width: int, height: int) -> Camera:
 class ExportCache:
     """What earlier exports produced, so that a viewport re-exports only what changed.
 
-    Meshes are kept in object space per object name (with the material names of their slots);
+    Meshes are kept in object space per (object name, mesh data name, mesh data pointer), with
+    the material names of their slots;
     world matrices and the material list are rebuilt on every export, which is cheap."""
 
-    meshes: dict[str, tuple[list[Mesh], list[str], list[str]]] = field(default_factory=dict)
+    meshes: dict[tuple, tuple[list[Mesh], list[str], list[str]]] = field(default_factory=dict)
     environment: tuple[str, object, list[str]] | None = None
 
     def invalidate(self, objects=(), materials=(), world: bool = False) -> None:
         materials = set(materials)
-        for name in list(self.meshes):
-            if name in objects or materials.intersection(self.meshes[name][1]):
-                del self.meshes[name]  # a material's UV map choice changes the exported UVs
+        for key in list(self.meshes):
+            if key[0] in objects or materials.intersection(self.meshes[key][1]):
+                del self.meshes[key]  # a material's UV map choice changes the exported UVs
         if world:
             self.environment = None
 
@@ -285,6 +286,7 @@ def export_scene(
     material_ids: dict[str, tuple[int, str]] = {}
     meshes: list[Mesh] = []
     lights: list[Light] = []
+    used: set[tuple] = set()
     for inst in depsgraph.object_instances:
         obj = inst.object
         if obj.type == "LIGHT":
@@ -304,18 +306,24 @@ def export_scene(
                 materials.append(exported)
             slot_ids.append(material_ids[key])
             slot_names.append(key)
+        # Geometry-nodes instances come as the generating object with other mesh data (all
+        # instances of one geometry share it): the key holds the data, the name invalidates.
         name = obj.original.name if obj.original is not None else obj.name
-        if name not in cache.meshes:
+        key = (name, obj.data.name if obj.data else "", obj.data.as_pointer() if obj.data else 0)
+        used.add(key)
+        if key not in cache.meshes:
             object_messages: list[str] = []
             exported_meshes = export_mesh(obj, [uv for _, uv in slot_ids], object_messages)
-            cache.meshes[name] = (exported_meshes, slot_names, object_messages)
-        cached, _, object_messages = cache.meshes[name]
+            cache.meshes[key] = (exported_meshes, slot_names, object_messages)
+        cached, _, object_messages = cache.meshes[key]
         messages += [m for m in object_messages if m not in messages]
         world = np.array(inst.matrix_world, dtype=np.float64)
         for mesh in cached:
             meshes.append(
                 replace(mesh, world_from_object=world, material=slot_ids[mesh.material][0])
             )
+    for key in set(cache.meshes) - used:  # deleted objects, replaced evaluated data
+        del cache.meshes[key]
     world_name = scene.world.name if scene.world is not None else ""
     if cache.environment is None or cache.environment[0] != world_name:
         env, env_messages = environment_from_world(scene.world)
