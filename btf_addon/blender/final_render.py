@@ -12,9 +12,11 @@ import gpu
 import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
-from ..cl.renderer import CLRenderer
+from ..cl.programs import is_cached
+from ..cl.renderer import KERNELS, CLRenderer
 from ..core.errors import BTFError
 from ..gl.interface import ShaderCompileError
+from ..render.analysis import analyse
 from .addon import ADDON_PACKAGE
 from .export import export_scene
 from .gpu_draw import SceneDrawer
@@ -36,7 +38,15 @@ def render(engine, depsgraph) -> None:
     for message in exported.messages:
         engine.report({"WARNING"}, message)
     try:
-        renderer = CLRenderer(exported, w, h, create_context(preferred_device()))
+        cl_context = create_context(preferred_device())
+        features = analyse(exported)
+        if not is_cached(cl_context.context, cl_context.device, KERNELS, features.defines()):
+            engine.update_stats(
+                "",
+                f"BTF | compiling the render kernels for {cl_context.device_name} "
+                "(first render with these scene features; cached afterwards)",
+            )
+        renderer = CLRenderer(exported, w, h, cl_context, features)
     except (OpenCLUnavailableError, RuntimeError, BTFError) as exc:
         engine.report(
             {"WARNING"},

@@ -64,6 +64,13 @@ def program_key(device, name: str, defines: dict[str, int | float]) -> str:
     return hashlib.sha256(ident.encode()).hexdigest()[:32]
 
 
+def is_cached(context, device, name: str, defines: dict[str, int | float]) -> bool:
+    """Whether build_program will find this program built (memory) or as a binary (disk), so
+    callers can say "compiling…" before a first build that may take a minute."""
+    key = program_key(device, name, defines)
+    return f"{context.int_ptr}:{key}" in _memory_cache or (cache_dir() / f"{key}.bin").is_file()
+
+
 def build_program(context, device, name: str, defines: dict[str, int | float]):
     """The built ``cl.Program`` for kernels/<name> with ``-D`` defines on one device."""
     import pyopencl as cl

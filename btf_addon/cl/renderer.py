@@ -25,8 +25,9 @@ from .programs import build_program
 
 BAND_PIXELS = 1 << 17  # most pixels per kernel launch: bounds device memory
 FIRST_LAUNCH_PIXELS = 1 << 14  # the first launch measures the cost per pixel
-LAUNCH_SECONDS = 0.2  # target per launch: cancel answers within about this
+LAUNCH_SECONDS = 0.1  # target per launch: cancel answers within a few times this
 PASS_SECONDS = 2.0  # target per progressive pass of the Sampled mode (preview cadence)
+KERNELS = "render_direct.cl"  # both final-render kernels
 LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
 
 
@@ -55,7 +56,7 @@ class CLRenderer:
         self.scene, self.width, self.height, self.ctx = scene, width, height, cl_context
         self.features = features or analyse(scene)
         program = build_program(
-            cl_context.context, cl_context.device, "render_direct.cl", self.features.defines()
+            cl_context.context, cl_context.device, KERNELS, self.features.defines()
         )
         self.kernel = cl.Kernel(program, "render_direct")
         self.kernel_mis = cl.Kernel(program, "render_env_mis")

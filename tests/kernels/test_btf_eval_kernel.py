@@ -78,12 +78,16 @@ def test_programs_are_cached_in_memory_and_on_disk(device_context, tmp_path, mon
     monkeypatch.setattr(programs, "_memory_cache", {})
     defines = {"TEST_VARIANT": 1}
     before = dict(programs.stats)
+    args = (device_context.context, device_context.device, "btf_eval.cl", defines)
+    assert not programs.is_cached(*args)  # F12 says "compiling…" then
     programs.build_program(device_context.context, device_context.device, "btf_eval.cl", defines)
     assert programs.stats["compiled"] == before["compiled"] + 1
+    assert programs.is_cached(*args)
     assert len(list(tmp_path.glob("*.bin"))) == 1
     programs.build_program(device_context.context, device_context.device, "btf_eval.cl", defines)
     assert programs.stats["memory_hits"] == before["memory_hits"] + 1
     monkeypatch.setattr(programs, "_memory_cache", {})  # as a new process would start
+    assert programs.is_cached(*args)  # on disk
     programs.build_program(device_context.context, device_context.device, "btf_eval.cl", defines)
     assert programs.stats["disk_hits"] == before["disk_hits"] + 1
     assert programs.stats["compiled"] == before["compiled"] + 1
