@@ -54,6 +54,8 @@ def build(bpy, tmp_path, kind: str, ground: bool):
     scene = bpy.context.scene
     if kind.startswith("principled"):
         material = principled_material(bpy, 1.0 if kind == "principled-metal" else 0.0)
+    elif kind.endswith("-node"):  # the Cycles material alone: our engine reads its node
+        material = cycles_material(bpy, kind.removesuffix("-node"))
     else:
         btf = LambertianBTF(0.8) if kind == "diffuse" else GGXBTF(0.8, 0.3)
         write_container(tmp_path / "m.btfm", btf)

@@ -3,8 +3,8 @@
 Meshes come with modifiers applied and instances expanded (``depsgraph.object_instances``),
 triangulated through loop triangles, with per-corner normals (Blender's own, so smooth/flat
 shading and custom normals are honoured), UVs and generated tangents. Materials: a material
-slot whose ``btf`` settings are enabled is drawn with that BTF; any other material with the
-analytic PrincipledBTF of its Principled BSDF's inputs (or of its viewport display settings).
+slot whose ``btf`` settings are enabled is drawn with that BTF; any other material with an
+analytic BTF of its surface shader (``materials.py``).
 Every simplification or problem is recorded in ``Scene.messages`` for the UI to show.
 """
 
@@ -18,20 +18,19 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core.analytic import PrincipledBTF
 from ..core.codecs import load_btf
 from ..core.errors import BTFError
 from ..core.model import BTF
 from ..render.lights import AreaLight, Light, PointLight, SunLight
 from ..render.scene import Camera, Material, Mesh, Scene
 from ..render.tangents import corner_tangents
+from .materials import analytic_btf
 from .world import environment_from_world
 
 log = logging.getLogger(__name__)
 
 # Loading a BTF is costly (text tables, checksums): keep them by absolute path and mtime.
 _btf_cache: dict[tuple[str, float], BTF] = {}
-_fallback_cache: dict[tuple, BTF] = {}
 
 
 def load_cached(path: str) -> BTF:
@@ -40,57 +39,6 @@ def load_cached(path: str) -> BTF:
     if key not in _btf_cache:
         _btf_cache[key] = load_btf(resolved)
     return _btf_cache[key]
-
-
-#: Principled BSDF inputs → PrincipledBTF parameters (inputs Blender versions lack are skipped).
-PRINCIPLED_INPUTS = {
-    "Base Color": "base_color",
-    "Roughness": "roughness",
-    "Metallic": "metallic",
-    "Diffuse Roughness": "diffuse_roughness",  # Blender 4.3+
-}
-
-
-def analytic_params(material, messages: list[str]) -> dict:
-    """PrincipledBTF parameters for a material without BTF: from its Principled BSDF's unlinked
-    inputs (a linked input, e.g. a texture, is rendered at its default value and reported), or
-    from the material's viewport display settings when it has no Principled BSDF."""
-    if material is None:
-        return {"base_color": (0.8, 0.8, 0.8), "roughness": 0.5}
-    node = None
-    if material.node_tree is not None:
-        node = next(
-            (n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"),
-            None,
-        )
-    if node is None:
-        return {
-            "base_color": tuple(material.diffuse_color)[:3],
-            "roughness": float(material.roughness),
-            "metallic": float(material.metallic),
-        }
-    params: dict = {}
-    for socket_name, key in PRINCIPLED_INPUTS.items():
-        socket = node.inputs.get(socket_name)
-        if socket is None:
-            continue
-        if socket.is_linked:
-            messages.append(
-                f"material {material.name!r}: {socket_name} is driven by nodes; rendered with "
-                "the input's own value (only BTF materials carry textures here)"
-            )
-        value = socket.default_value
-        params[key] = tuple(value)[:3] if key == "base_color" else float(value)
-    ior, level = node.inputs.get("IOR"), node.inputs.get("Specular IOR Level")
-    if ior is not None:
-        f0 = ((ior.default_value - 1.0) / (ior.default_value + 1.0)) ** 2
-        # Blender's Specular IOR Level 0.5 leaves F0 as the IOR gives; 1.0 doubles it.
-        f0 *= 2.0 * (level.default_value if level is not None else 0.5)
-        params["specular_f0"] = float(np.clip(f0, 0.0, 1.0))
-    for key in ("roughness", "metallic", "diffuse_roughness"):
-        if key in params:
-            params[key] = float(np.clip(params[key], 0.0, 1.0))
-    return params
 
 
 def export_material(material, messages: list[str]) -> tuple[Material, str]:
@@ -108,11 +56,7 @@ def export_material(material, messages: list[str]) -> tuple[Material, str]:
             except (BTFError, OSError) as exc:
                 messages.append(f"material {material.name!r}: {exc}")
     name = material.name if material is not None else "default"
-    params = analytic_params(material, messages)
-    key = tuple(sorted((k, tuple(np.round(np.atleast_1d(v), 6))) for k, v in params.items()))
-    if key not in _fallback_cache:  # one BTF object per setting: its GPU upload is reused
-        _fallback_cache[key] = PrincipledBTF(**params)
-    return Material(_fallback_cache[key], name=name), ""
+    return Material(analytic_btf(material, messages), name=name), ""
 
 
 def export_light(light, world: np.ndarray, messages: list[str]) -> Light | None:

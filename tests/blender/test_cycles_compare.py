@@ -24,6 +24,7 @@ from cycles_scenes import SIZE, add_light, build, cycles_reference, relative_rms
         # Schlick = Cycles' F82 with a white tint) and 4.9 % (dielectric: Cycles scales the
         # diffuse by the specular layer's directional albedo, we by 1 − Schlick(cos θo)).
         ("principled-metal", False, 0, 0.02),
+        ("glossy-node", False, 0, 0.05),  # no BTF: the Glossy BSDF node itself is read
         ("principled-dielectric", False, 0, 0.07),
     ],
 )
