@@ -69,17 +69,23 @@ def random_queries(rng: np.random.Generator, n: int) -> np.ndarray:
     )
 
 
-def run_cli(*args, check=True, cwd=ROOT):
-    env = cli_env()
+def run_python(*args, check=True, cwd=ROOT, env=None) -> subprocess.CompletedProcess:
+    """This venv's Python in a subprocess (``-m btf_addon …`` or ``-c CODE``), with this
+    checkout importable; ``check`` asserts exit code 0 and shows stderr otherwise."""
     proc = subprocess.run(
-        [sys.executable, "-m", "btf_addon", *map(str, args)],
+        [sys.executable, *map(str, args)],
         cwd=cwd,
         capture_output=True,
         text=True,
         check=False,
         timeout=600,
-        env=env,
+        env=env or cli_env(),
     )
     if check:
         assert proc.returncode == 0, proc.stderr
     return proc
+
+
+def run_cli(*args, check=True, cwd=ROOT, env=None) -> subprocess.CompletedProcess:
+    """``python -m btf_addon ARGS`` in a subprocess."""
+    return run_python("-m", "btf_addon", *args, check=check, cwd=cwd, env=env)

@@ -3,30 +3,13 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from helpers import ROOT, cli_env, shared_material, studiolights_dir
+from helpers import cli_env, run_cli, shared_material, studiolights_dir
 
 from btf_addon.core.codecs import load_btf
 from btf_addon.core.imageio import read_exr, write_exr
-
-
-def run_cli(*args, check=True, env=None):
-    env = env or cli_env()
-    proc = subprocess.run(
-        [sys.executable, "-m", "btf_addon", *map(str, args)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=False,
-        env=env,
-    )
-    if check:
-        assert proc.returncode == 0, proc.stderr
-    return proc
 
 
 def test_info_reports_the_raw_size_and_ratio():

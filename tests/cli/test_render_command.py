@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
 import pytest
-from helpers import ROOT, cli_env, run_cli
+from helpers import ROOT, run_cli, run_python
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.container import write_container
@@ -30,15 +28,7 @@ def make_blend(path, script: str) -> None:
         + textwrap.dedent(script)
         + f"\nbpy.ops.wm.save_as_mainfile(filepath={str(path)!r})\n"
     )
-    proc = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=300,
-        env=cli_env(),
-    )
-    assert proc.returncode == 0, proc.stderr
+    run_python("-c", code)
 
 
 def test_demo_renders_a_png_and_reports_timing(tmp_path):

@@ -4,13 +4,11 @@ is known independently, give it."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import textwrap
 
 import numpy as np
 import pytest
-from helpers import ROOT, cli_env, run_cli
+from helpers import ROOT, run_cli, run_python
 
 from btf_addon.core.imageio import read_exr
 
@@ -72,15 +70,7 @@ def blends(tmp_path_factory):
             + textwrap.dedent(body)
             + f"\nbpy.ops.wm.save_as_mainfile(filepath={str(folder / (name + '.blend'))!r})\n"
         )
-    proc = subprocess.run(
-        [sys.executable, "-c", "".join(parts)],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=300,
-        env=cli_env(),
-    )
-    assert proc.returncode == 0, proc.stderr
+    run_python("-c", "".join(parts))
     return folder
 
 
@@ -138,16 +128,7 @@ def test_a_4k_frame_keeps_memory_bounded(blends):
             f" '-o', {str(out)!r}, '--resolution', {resolution!r}, '--lighting', 'virtual:1']\n"
             "runpy.run_module('btf_addon', run_name='__main__')\n"
         )
-        proc = subprocess.run(
-            [sys.executable, "-c", code],
-            capture_output=True,
-            text=True,
-            check=False,
-            timeout=600,
-            env=cli_env(),
-            cwd=ROOT,
-        )
-        assert proc.returncode == 0, proc.stderr
+        proc = run_python("-c", code)
         peaks[resolution] = int(proc.stderr.split("peak_kb")[-1].split()[0]) * 1024
         assert out.stat().st_size > 0
     growth = (peaks["3840x2160"] - peaks["384x216"]) / (3840 * 2160 - 384 * 216)
