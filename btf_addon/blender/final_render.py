@@ -8,6 +8,8 @@ the render says so and falls back to the GLSL drawer (no shadows) in an offscree
 
 from __future__ import annotations
 
+import time
+
 import gpu
 import numpy as np
 
@@ -57,15 +59,24 @@ def render(engine, depsgraph) -> None:
         return
     cam = exported.camera
     lights = frame_lights(scene.btf_render, exported, cam.world_from_camera[:3, 2])
-    engine.update_stats(
-        "",
-        f"BTF | OpenCL on {renderer.ctx.device_name} | "
-        f"{renderer.triangle_count} triangles, {len(lights.pdf)} lights, "
-        f"shadows {'on' if renderer.features.shadows else 'off (none possible)'}",
+    settings = scene.btf_render
+    sampled = settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT"
+    lighting = (
+        f"{settings.samples} samples, {settings.max_bounces} bounces"
+        if sampled
+        else f"{len(lights.pdf)} virtual lights"
     )
+    stats = (
+        f"BTF | OpenCL on {renderer.ctx.device_name} | {renderer.triangle_count} triangles, "
+        f"{lighting}, {len(exported.lights)} Blender lights, "
+        f"shadows {'on' if renderer.features.shadows else 'off (none possible)'}"
+    )
+    engine.update_stats("", stats)
+    started = time.perf_counter()
 
     def progress(fraction: float) -> bool:
         engine.update_progress(fraction)
+        engine.update_stats("", f"{stats} | {fraction:.0%}, {time.perf_counter() - started:.1f} s")
         return not engine.test_break()
 
     view_layer = depsgraph.view_layer
@@ -84,8 +95,7 @@ def render(engine, depsgraph) -> None:
         layer.passes["Combined"].rect = np.ascontiguousarray(combined[::-1]).reshape(w * h, 4)
         engine.update_result(result)
 
-    settings = scene.btf_render
-    if settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT":
+    if sampled:
         # Depth, normal and UV come from the deterministic kernel with one light (cheap).
         passes = renderer.render_direct(lights.prefix(1))
         passes.combined = renderer.render_sampled(
