@@ -19,6 +19,7 @@
 #include "btf_trace.h"
 #include "btf_surface.h"
 #include "btf_lights.h"
+#include "btf_sampling.h"
 
 
 inline float3 env_lookup(__global const float *env, int w, int h, float2 params, float3 d)
@@ -107,7 +108,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
 /* --- Monte Carlo environment lighting with MIS ----------------------------------------------
  * The same camera rays and shading frame as render_direct, but the World is sampled
  * continuously: per sample one light direction drawn from the environment's piecewise-constant
- * distribution (btf_addon/core/envmap.py, same tables) and one cosine-weighted direction, combined
+ * distribution (btf_addon/core/envmap.py, same tables) and one direction from the BTF's sampling
+ * (cosine, or its GGX lobe where it has one: include/btf_sampling.h), combined
  * with the power heuristic. Unbiased for any BTF; converges to the integral the virtual lights
  * approximate. Seeds differ per pass so the host can average passes progressively. */
 
@@ -205,7 +207,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                                    (row + clamp(dt, 0.0f, 0.999999f)) / env_h, rotation);
         float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
         float3 wi = to_frame(&cur, dir);
-        float pdf_bsdf = fmax(wi.z, 0.0f) / M_PI_F;
+        float pdf_bsdf = bsdf_pdf(I, F, wi, cur.wo);
         bool visible = wi.z > 0.0f && pdf_light > 0.0f;
 #if HAS_SHADOWS
         float ts, us, vs;
@@ -224,17 +226,16 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       }
       sum += throughput * exposure * blender_lights(&cur, I, F, scene_lights, scene_light_count,
                                                      eps, bounds, links, corners, &smp);
-      /* 2. A cosine-weighted direction: it either reaches the World (MIS-weighted against the
-       * environment sample above) or, within the bounce limit, continues the path. */
+      /* 2. A direction from the BTF's sampling (include/btf_sampling.h): it either reaches the
+       * World (MIS-weighted against the environment sample above) or, within the bounce
+       * limit, continues the path. */
       float2 uc = next_2d(&smp);
-      float u0 = uc.x, u1 = uc.y;
-      float r = sqrt(u0), phi = 2.0f * M_PI_F * u1;
-      float3 lo = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(1.0f - u0, 0.0f)));
-      float3 dir = lo.x * cur.t + lo.y * cur.b + lo.z * cur.n;
-      float pdf_bsdf = lo.z / M_PI_F;
-      if (pdf_bsdf <= 0.0f) {
+      float3 lo = bsdf_sample(I, F, cur.wo, rand01(&smp.rng), uc);
+      float pdf_bsdf = bsdf_pdf(I, F, lo, cur.wo);
+      if (!(pdf_bsdf > 0.0f) || lo.z <= 0.0f) {
         break;
       }
+      float3 dir = lo.x * cur.t + lo.y * cur.b + lo.z * cur.n;
       float2 light = btf_theta_phi_deg(lo);
       float3 value = btf_evaluate(I, F, cur.btf_uv, lo, cur.wo, light.x, light.y, cur.view.x,
                                   cur.view.y);
