@@ -111,7 +111,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
  * distribution (btf_addon/core/envmap.py, same tables) and one direction from the BTF's sampling
  * (cosine, or its GGX lobe where it has one: include/btf_sampling.h), combined
  * with the power heuristic. Unbiased for any BTF; converges to the integral the virtual lights
- * approximate. Seeds differ per pass so the host can average passes progressively. */
+ * approximate. The host renders samples [first_sample, first_sample + samples) per launch and
+ * averages launches; a sample's random points depend only on its index, not on the split. */
 
 /* Largest index i in [0, n) with cdf[i] <= u (cdf has n + 1 entries from 0 to 1). */
 inline int cdf_search(__global const float *cdf, int n, float u)
@@ -161,8 +162,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              const float2 env_params, __global const float *scene_lights,
                              const int scene_light_count, __global const float *row_cdf,
                              __global const float *col_cdf, __global const float *row_pdf,
-                             __global const float *col_pdf, const int first_sample, const int samples,
-                             const uint seed,
+                             __global const float *col_pdf, const int first_sample,
+                             const int samples, const uint seed,
                              const int max_bounces, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
@@ -182,11 +183,11 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
                                   eps);
   float rotation = env_params.x;
-  uint pixel = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
+  uint pixel_seed = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
   for (int si = 0; si < samples; si++) {
     uint index = (uint)(first_sample + si); /* a sample's points depend only on its index */
-    Sampler smp = {pixel, index, 0u, pcg_hash(pixel + index)};
+    Sampler smp = {pixel_seed, index, 0u, pcg_hash(pixel_seed + index)};
     SurfacePoint cur = sp;
     float3 throughput = (float3)(1.0f);
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {

@@ -1,9 +1,11 @@
 """The OpenCL final render over a plain-array scene (render/scene.py).
 
-Deterministic direct-lighting mode: exactly the given virtual lights per pixel, with shadow rays
-only when the scene analysis says a surface can shadow another (render/analysis.py), compiled as
-a ``-D`` variant and cached. Rows are rendered in bands so progress can be reported and a cancel
-honoured between bands; device memory holds one band of passes at a time.
+Two modes: deterministic direct lighting (exactly the given virtual lights, plus Blender's
+lights) and Monte Carlo path tracing (the World sampled with MIS, bounces). Shadow rays and
+area-light code only where the scene analysis says they can matter (render/analysis.py),
+compiled as ``-D`` variants and cached. Work goes in launches sized by measured cost, so
+progress is reported and a cancel honoured at any sample count; device memory holds one band
+of passes at a time.
 """
 
 from __future__ import annotations
@@ -161,7 +163,7 @@ class CLRenderer:
         lx = LOCAL_SIZE[0]
         return (-(-self.width // lx) * lx, rows)
 
-    def _run_bands(
+    def _render_in_launches(
         self, launch, channels: tuple[int, ...], progress, samples: int = 1, preview=None
     ) -> list[np.ndarray]:
         """Render in launches of (rows, samples) sized by measured cost, so that each takes
@@ -171,7 +173,8 @@ class CLRenderer:
         ``launch(row0, rows, first_sample, count, buffers)`` enqueues the kernel for those rows
         and samples [first_sample, first_sample + count), writing per-pixel means, one buffer
         per entry of ``channels``. Samples go in passes over the whole image (each pass about
-        PASS_SECONDS); ``preview(images)`` sees the image after every pass. ``progress``
+        PASS_SECONDS); ``preview(images)`` sees the image after every pass (read it during the
+        call: the arrays may be reused). ``progress``
         returning False stops: rows keep the samples they have (rows never reached stay black).
         Returns (h, w, k) arrays averaged over every sample rendered."""
         cl = self.cl
@@ -181,15 +184,17 @@ class CLRenderer:
         buffers = [
             cl.Buffer(self.ctx.context, mf.WRITE_ONLY, max_rows * w * 4 * k) for k in channels
         ]
-        sums = [np.zeros((h, w, k), np.float64) for k in channels]
+        sums = [np.zeros((h, w, k), np.float32) for k in channels]
         counts = np.zeros(h, np.int64)  # samples rendered per row
         cost = None  # seconds per pixel-sample, measured (decaying maximum)
         last_work = 0  # rows × samples of the last launch
         rows = max(1, min(max_rows, FIRST_LAUNCH_PIXELS // w))
 
         def images():
-            weight = 1.0 / np.maximum(counts, 1)[:, None, None]
-            return [(total * weight).astype(np.float32) for total in sums]
+            if counts.max() <= 1:  # one sample (the deterministic mode): sums are the means
+                return sums
+            weight = (1.0 / np.maximum(counts, 1)).astype(np.float32)[:, None, None]
+            return [total * weight for total in sums]
 
         first = 0
         while first < samples:
@@ -252,7 +257,7 @@ class CLRenderer:
                 *buffers,
             )
 
-        combined, depth, normal, uv = self._run_bands(launch, (4, 1, 3, 2), progress)
+        combined, depth, normal, uv = self._render_in_launches(launch, (4, 1, 3, 2), progress)
         return RenderPasses(combined, depth[..., 0], normal, uv)
 
     def render_sampled(
@@ -264,7 +269,7 @@ class CLRenderer:
         preview: Callable[[np.ndarray], None] | None = None,
     ) -> np.ndarray:
         """(h, w, 4) Combined by path tracing: ``samples`` paths per pixel; at every vertex one
-        environment sample and one cosine sample with MIS (power heuristic); up to
+        environment sample and one from the BTF's sampling, with MIS (power heuristic); up to
         ``max_bounces`` indirect reflections (none where the scene analysis finds no surface
         that can see another), Russian roulette after the second. Samples are rendered in
         progressive passes (``preview`` sees each); the result does not depend on how they
@@ -273,13 +278,7 @@ class CLRenderer:
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
-        tail_args = [
-            self.eps,
-            *self._env_args(),
-            *self.env_tables,
-            np.uint32(seed),
-            np.int32(bounces),
-        ]
+        world_args = [self.eps, *self._env_args(), *self.env_tables]
 
         def launch(row0, band, first, count, buffers):
             self.kernel_mis(
@@ -291,13 +290,14 @@ class CLRenderer:
                 np.int32(row0),
                 wfc,
                 *self._scene_args(),
-                *tail_args[:-2],
+                *world_args,
                 np.int32(first),
                 np.int32(count),
-                *tail_args[-2:],
+                np.uint32(seed),
+                np.int32(bounces),
                 *buffers,
             )
 
         show = None if preview is None else (lambda images: preview(images[0]))
-        (combined,) = self._run_bands(launch, (4,), progress, samples, show)
+        (combined,) = self._render_in_launches(launch, (4,), progress, samples, show)
         return combined
