@@ -51,6 +51,7 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   float a = 1.0 / (3.14159265358979 + (3.14159265358979 / 2.0 - 2.0 / 3.0) * sigma);
   float ci_over_t = s > 0.0 ? wi.z / max(max(wi.z, wo.z), 1e-6) : wi.z;
   float on = a * wi.z + sigma * a * s * ci_over_t;
-  float weight = (1.0 - metallic) * (1.0 - (f0d + (1.0 - f0d) * pow(1.0 - clamp(wo.z, 0.0, 1.0), 5.0)));
+  float fresnel_view = f0d + (1.0 - f0d) * pow(1.0 - clamp(wo.z, 0.0, 1.0), 5.0);
+  float weight = (1.0 - metallic) * (1.0 - fresnel_view);
   return weight * albedo * on + fresnel * ggx;
 }
