@@ -1,9 +1,11 @@
 """F12: the scene camera's image.
 
-With OpenCL (the device chosen in the preferences, else the best one): the ray-traced
-deterministic direct-lighting mode — exactly the N virtual lights, shadow rays where the scene
-can have shadows — writing Combined, Depth, Normal and UV passes. Without a usable OpenCL device
-the render says so and falls back to the GLSL drawer (no shadows) in an offscreen buffer.
+With OpenCL (the device chosen in the preferences, else the best one): the ray-traced final
+render in the mode the render settings choose — Virtual Lights (exactly the viewport's N lights,
+deterministic) or Sampled (path tracing, shown pass by pass) — with Blender's lights, shadow
+rays where the scene can have shadows, and Combined, Depth, Normal and UV passes. Without a
+usable OpenCL device the render says so and falls back to the GLSL drawer (no shadows) in an
+offscreen buffer.
 """
 
 from __future__ import annotations
