@@ -13,6 +13,19 @@ vec3 btf_direction(float theta_deg, float phi_deg)
   return vec3(sin(t) * cos(p), sin(t) * sin(p), cos(t));
 }
 
+/* A direction in the tangent frame (t, b, n), and as (θ, φ) degrees with φ in [0, 360): what
+ * btf_evaluate takes (as btf_theta_phi_deg in kernels/include/btf_packed.h). */
+vec3 to_tangent(vec3 d, vec3 t, vec3 b, vec3 n)
+{
+  return vec3(dot(d, t), dot(d, b), dot(d, n));
+}
+
+vec2 theta_phi_deg(vec3 d)
+{
+  float phi = degrees(atan(d.y, d.x));
+  return vec2(degrees(acos(clamp(d.z, -1.0, 1.0))), phi < 0.0 ? phi + 360.0 : phi);
+}
+
 /* uv: texture coordinates; angles in degrees with theta in [0, 90]. */
 vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v)
 {

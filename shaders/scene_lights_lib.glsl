@@ -66,14 +66,12 @@ vec3 scene_lights_sum(int count, vec3 p, vec3 t, vec3 b, vec3 n, vec2 uv, vec2 v
                     (float(k / AREA_GRID) + 0.5) / float(AREA_GRID));
       vec3 dir;
       vec3 e = scene_light_sample(i, p, u, dir);
-      vec3 wi = vec3(dot(dir, t), dot(dir, b), dot(dir, n));
+      vec3 wi = to_tangent(dir, t, b, n);
       if (wi.z <= 0.0 || !(e.r + e.g + e.b > 0.0)) {
         continue;
       }
-      float theta = degrees(acos(clamp(wi.z, -1.0, 1.0)));
-      float phi = degrees(atan(wi.y, wi.x));
-      sum += btf_evaluate(uv, theta, phi < 0.0 ? phi + 360.0 : phi, view.x, view.y) * e /
-             float(samples);
+      vec2 light = theta_phi_deg(wi);
+      sum += btf_evaluate(uv, light.x, light.y, view.x, view.y) * e / float(samples);
     }
   }
   return sum;

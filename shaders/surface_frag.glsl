@@ -10,17 +10,6 @@
  *              × its light count, so the resolve's division by the lights so far leaves them
  *              added exactly once at every stage of the accumulation. */
 
-vec3 to_tangent(vec3 d, vec3 t, vec3 b, vec3 n)
-{
-  return vec3(dot(d, t), dot(d, b), dot(d, n));
-}
-
-vec2 theta_phi_deg(vec3 d)
-{
-  float phi = degrees(atan(d.y, d.x));
-  return vec2(degrees(acos(clamp(d.z, -1.0, 1.0))), phi < 0.0 ? phi + 360.0 : phi);
-}
-
 void main()
 {
   vec3 n = normalize(v_normal);

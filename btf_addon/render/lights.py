@@ -1,6 +1,6 @@
 """Blender's lights as plain data, in Cycles' units, and their packed layout for the kernels.
 
-Units (checked against Cycles renders, tests/blender/test_lights_vs_cycles.py):
+Units (checked against Cycles renders, tests/blender/test_cycles_compare.py):
 - Sun: strength is irradiance (W/m²) perpendicular to the light.
 - Point and Spot of power P watts: radiant intensity P/(4π) W/sr in every direction (a spot's
   cone only masks it, it does not concentrate it). A radius r > 0 makes it a disc of that radius
@@ -108,12 +108,3 @@ def pack_lights(lights: list[Light]) -> np.ndarray:
             row[4:7], row[8:11] = light.radiance, light.normal
             row[12:15], row[16:19], row[19] = light.half_u, light.half_v, float(light.ellipse)
     return out
-
-
-def spot_mask(cos_gamma, cos_half: float, smooth: float):
-    """numpy reference of the kernel's spot mask (smooth = row 3's w; 0 = hard edge)."""
-    cos_gamma = np.asarray(cos_gamma, dtype=np.float64)
-    if smooth <= 0.0:
-        return (cos_gamma > cos_half).astype(np.float64)
-    x = np.clip((cos_gamma - cos_half) * smooth, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)

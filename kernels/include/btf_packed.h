@@ -232,6 +232,13 @@ inline float ggx_lambda(float alpha2, float c)
   return 0.5f * (-1.0f + sqrt(1.0f + alpha2 * fmax(1.0f / c2 - 1.0f, 0.0f)));
 }
 
+/* GGX normal distribution D(m) for cos θm (α² given). */
+inline float ggx_d(float alpha2, float cos_m)
+{
+  float denom = 1.0f + (alpha2 - 1.0f) * cos_m * cos_m;
+  return alpha2 / (M_PI_F * denom * denom);
+}
+
 /* wi, wo: unit tangent-frame directions with z >= 0; angles in degrees of the same directions. */
 inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, float theta_i,
                            float phi_i, float theta_v, float phi_v)
@@ -251,10 +258,8 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   float3 h = wi + wo;
   float h_len = length(h);
   float cos_h = h_len > 1e-12f ? h.z / h_len : 0.0f;
-  float denom = 1.0f + (alpha2 - 1.0f) * cos_h * cos_h;
-  float d = alpha2 / (M_PI_F * denom * denom);
   float g = 1.0f / (1.0f + ggx_lambda(alpha2, wi.z) + ggx_lambda(alpha2, wo.z));
-  float ggx = d * g / (4.0f * fmax(wo.z, 1e-6f));
+  float ggx = ggx_d(alpha2, cos_h) * g / (4.0f * fmax(wo.z, 1e-6f));
   if (codec == CODEC_GGX) {
     return albedo * ggx;
   }

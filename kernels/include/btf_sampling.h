@@ -22,12 +22,6 @@ inline float ggx_lobe_probability(Stream I, Stream F)
   return 0.0f;
 }
 
-inline float ggx_d(float alpha2, float cos_m)
-{
-  float denom = 1.0f + (alpha2 - 1.0f) * cos_m * cos_m;
-  return alpha2 / (M_PI_F * denom * denom);
-}
-
 /* pdf (solid angle) of reflecting wo into wi through a visible normal. */
 inline float ggx_vndf_pdf(float alpha2, float3 wi, float3 wo)
 {
