@@ -20,8 +20,8 @@ from common import table
 
 from btf_addon.cl.context import create_context
 from btf_addon.cl.renderer import CLRenderer
-from btf_addon.render.analysis import analyse
-from btf_addon.render.scene import Scene
+from btf_addon.scene.analysis import analyse
+from btf_addon.scene.scene import Scene
 
 
 def timed_render(renderer: CLRenderer, lights, repeat: int = 2) -> tuple[float, np.ndarray]:

@@ -21,8 +21,8 @@ from btf_addon.core.envmap import Environment
 from btf_addon.core.imageio import read_exr
 from btf_addon.core.microgeometry import woven
 from btf_addon.gl.renderer import GLSLRenderer
-from btf_addon.render.primitives import plane, uv_sphere
-from btf_addon.render.scene import Camera, Material, Scene, look_at
+from btf_addon.scene.primitives import plane, uv_sphere
+from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 
 def bench_scene() -> Scene:

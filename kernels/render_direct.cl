@@ -2,7 +2,7 @@
  * the given virtual lights (no MIS, no bounces) — the common ground with the GLSL viewport.
  *
  * Variants: HAS_SHADOWS (shadow rays towards every light; off when the scene analysis proves no
- * surface can shadow another, btf_addon/render/analysis.py); HAS_AREA_LIGHTS (the area-light
+ * surface can shadow another, btf_addon/scene/analysis.py); HAS_AREA_LIGHTS (the area-light
  * sampling code, off when the scene has none). Blender's lights: include/btf_lights.h.
  *
  * Passes written per pixel: combined (RGBA), depth (distance along the camera axis from the

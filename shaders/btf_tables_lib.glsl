@@ -1,4 +1,4 @@
-/* BTF tables packed into two textures (btf_addon/gl/tables.py): every table flattened and laid
+/* BTF tables packed into two textures (btf_addon/core/packed.py): every table flattened and laid
  * out row by row in R32F textures TABLE_WIDTH texels wide, one of integers (stored exactly as
  * floats, all below 2^24) and one of floats. The first texels of each hold a header of sizes and
  * table offsets, so no push constants are spent on the layout.
@@ -16,7 +16,7 @@ float ftab(int i)
   return texelFetch(btf_float_tables, ivec2(i % TABLE_WIDTH, i / TABLE_WIDTH), 0).r;
 }
 
-/* Integer header slots (keep in sync with btf_addon/gl/tables.py: INT_HEADER). */
+/* Integer header slots (keep in sync with btf_addon/core/packed.py: INT_HEADER). */
 #define H_CODEC 1
 #define H_N_BETA 2
 #define H_N_ALPHA 3

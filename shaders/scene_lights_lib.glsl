@@ -1,6 +1,6 @@
 /* Blender's lights in the viewport, as the final render's deterministic mode lights them
  * (kernels/include/btf_lights.h: a point light's centre, an area light's 4 × 4 cell centres;
- * units and layout: btf_addon/render/lights.py, 5 RGBA texels per light) but without shadows:
+ * units and layout: btf_addon/scene/lights.py, 5 RGBA texels per light) but without shadows:
  * the viewport has none. */
 
 #define LIGHT_SUN 0

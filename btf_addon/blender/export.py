@@ -1,4 +1,4 @@
-"""The evaluated depsgraph → a plain-array ``render.scene.Scene``.
+"""The evaluated depsgraph → a plain-array ``scene.scene.Scene``.
 
 Meshes come with modifiers applied and instances expanded (``depsgraph.object_instances``),
 triangulated through loop triangles, with per-corner normals (Blender's own, so smooth/flat
@@ -21,9 +21,9 @@ import numpy as np
 from ..core.codecs import load_btf
 from ..core.errors import BTFError
 from ..core.model import BTF
-from ..render.lights import AreaLight, Light, PointLight, SunLight
-from ..render.scene import Camera, Material, Mesh, Scene
-from ..render.tangents import corner_tangents
+from ..scene.lights import AreaLight, Light, PointLight, SunLight
+from ..scene.scene import Camera, Material, Mesh, Scene
+from ..scene.tangents import corner_tangents
 from .materials import analytic_btf
 from .world import environment_from_world
 
@@ -60,7 +60,7 @@ def export_material(material, messages: list[str]) -> tuple[Material, str]:
 
 
 def export_light(light, world: np.ndarray, messages: list[str]) -> Light | None:
-    """A Blender light → render/lights.py in Cycles' units (power in watts, colour, exposure)."""
+    """A Blender light → scene/lights.py in Cycles' units (power in watts, colour, exposure)."""
     strength = np.array(light.color, dtype=np.float64) * light.energy
     strength *= 2.0 ** getattr(light, "exposure", 0.0)  # Blender 4.x+ lights have exposure
     axes = world[:3, :3]

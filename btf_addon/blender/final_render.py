@@ -12,21 +12,18 @@ from __future__ import annotations
 
 import time
 
-import gpu
 import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
 from ..cl.programs import is_cached
 from ..cl.renderer import KERNELS, CLRenderer
 from ..core.errors import BTFError
-from ..gl.interface import ShaderCompileError
-from ..render.analysis import analyse
+from ..render.lighting import frame_lights
+from ..render.settings import RenderSettings
+from ..scene.analysis import analyse
 from .addon import ADDON_PACKAGE
 from .export import export_scene
-from .gpu_draw import SceneDrawer
-from .lighting import frame_lights
-
-BATCH = 16  # lights per pass: progress and cancel are checked between passes
+from .glsl_fallback import render_glsl
 
 
 def render(engine, depsgraph) -> None:
@@ -57,12 +54,12 @@ def render(engine, depsgraph) -> None:
             f"OpenCL unavailable ({exc}); rendering with the GLSL "
             "viewport path instead (no shadows)",
         )
-        render_glsl(engine, exported, scene, w, h)
+        render_glsl(engine, exported, RenderSettings.from_properties(scene.btf_render), w, h)
         return
     cam = exported.camera
-    lights = frame_lights(scene.btf_render, exported, cam.world_from_camera[:3, 2])
-    settings = scene.btf_render
-    sampled = settings.final_mode == "SAMPLED" and settings.lighting == "ENVIRONMENT"
+    settings = RenderSettings.from_properties(scene.btf_render)
+    lights = frame_lights(settings, exported, cam.world_from_camera[:3, 2])
+    sampled = settings.sampled
     lighting = (
         f"{settings.samples} samples, {settings.max_bounces} bounces"
         if sampled
@@ -129,37 +126,3 @@ def preferred_device() -> int | None:
     addon = bpy.context.preferences.addons.get(ADDON_PACKAGE)
     choice = getattr(getattr(addon, "preferences", None), "opencl_device", "AUTO")
     return int(choice[3:]) if choice.startswith("DEV") else None
-
-
-def render_glsl(engine, exported, scene, w: int, h: int) -> None:
-    try:
-        drawer = SceneDrawer(exported)
-    except (BTFError, ShaderCompileError) as exc:
-        engine.report({"ERROR"}, str(exc))
-        return
-    cam = exported.camera
-    clip_from_world = cam.clip_from_world(w / h)
-    camera = cam.shader_vector()
-    drawer.set_lights(frame_lights(scene.btf_render, exported, cam.world_from_camera[:3, 2]), BATCH)
-    engine.update_stats("", f"BTF | {len(exported.meshes)} meshes, {drawer.state.total} lights")
-
-    background = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
-    accumulation = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
-    output = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
-    try:
-        drawer.restart(background, accumulation, clip_from_world, camera, (w, h))
-        while drawer.add_batch(accumulation, clip_from_world, camera):
-            engine.update_progress(drawer.state.done / drawer.state.total)
-            if engine.test_break():
-                break
-        with output.bind():
-            drawer.draw_resolve(accumulation.texture_color, background.texture_color)
-            pixels = gpu.state.active_framebuffer_get().read_color(0, 0, w, h, 4, 0, "FLOAT")
-        pixels.dimensions = w * h * 4
-        rect = np.array(pixels, dtype=np.float32).reshape(w * h, 4)
-    finally:
-        for offscreen in (background, accumulation, output):
-            offscreen.free()
-    result = engine.begin_result(0, 0, w, h)
-    result.layers[0].passes["Combined"].rect = rect
-    engine.end_result(result)

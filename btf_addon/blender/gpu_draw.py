@@ -14,6 +14,7 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 
 from ..core.envmap import VirtualLights
+from ..core.packed import pack
 from ..gl.interface import (
     BACKGROUND_SHADER,
     RESOLVE_SHADER,
@@ -21,10 +22,9 @@ from ..gl.interface import (
     ShaderCompileError,
     ShaderInterface,
 )
-from ..gl.tables import pack
-from ..render.lights import pack_lights
 from ..render.progressive import ProgressiveState
-from ..render.scene import Scene
+from ..scene.lights import pack_lights
+from ..scene.scene import Scene
 
 _shader_cache: dict[str, gpu.types.GPUShader] = {}
 QUAD = [(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)]
@@ -113,7 +113,7 @@ class SceneDrawer:
         self.quad_bg = batch_for_shader(self.background_shader, "TRIS", {"pos": QUAD})
         self.quad_resolve = batch_for_shader(self.resolve_shader, "TRIS", {"pos": QUAD})
         self.lights_tex = None
-        # Blender's lights: five RGBA texels each (render/lights.py), drawn without shadows.
+        # Blender's lights: five RGBA texels each (scene/lights.py), drawn without shadows.
         self.scene_lights_tex = texture(pack_lights(scene.lights).reshape(1, -1, 4), "RGBA32F")
         self.state: ProgressiveState | None = None
 

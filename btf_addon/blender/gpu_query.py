@@ -11,9 +11,9 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 
 from ..core.model import BTF, Queries
+from ..core.packed import pack
 from ..gl.interface import QUERY_SHADER
 from ..gl.query import query_textures
-from ..gl.tables import pack
 from .gpu_draw import shader, texture
 
 

@@ -22,7 +22,7 @@ from bpy_extras.io_utils import ImportHelper
 from ..core.codecs import load_btf
 from ..core.errors import BTFError
 from ..core.model import BTF
-from ..gl.tables import pack
+from ..core.packed import pack
 
 
 class LoadJob:
@@ -31,7 +31,6 @@ class LoadJob:
 
     def __init__(self, path: Path):
         self.path, self.btf, self.error = path, None, None
-        self.cancelled = False
         self._thread = threading.Thread(target=self._run, daemon=True, name="btf-import")
 
     def _run(self) -> None:
@@ -155,7 +154,6 @@ class BTF_OT_import_material(Operator, ImportHelper):
     def modal(self, context, event):
         wm = context.window_manager
         if event.type == "ESC":
-            self._job.cancelled = True
             self._end(context)
             self.report({"WARNING"}, "BTF import cancelled; nothing was changed")
             return {"CANCELLED"}

@@ -16,7 +16,7 @@ class BTF_OT_check_system(Operator):
     bl_options = {"INTERNAL"}
 
     def execute(self, context):
-        from ..cli.probes import PROBES
+        from ..diagnostics.probes import PROBES
 
         lines = []
         for name, (probe, hint) in PROBES.items():

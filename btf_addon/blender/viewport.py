@@ -13,9 +13,10 @@ from gpu_extras.presets import draw_texture_2d
 
 from ..core.errors import BTFError
 from ..gl.interface import ShaderCompileError
+from ..render.lighting import frame_lights
+from ..render.settings import RenderSettings
 from .export import ExportCache, changed_ids, export_scene
 from .gpu_draw import SceneDrawer
-from .lighting import frame_lights
 
 
 class ViewportState:
@@ -56,7 +57,7 @@ def view_draw(engine, context, depsgraph) -> None:
     state = _state(engine)
     region, rv3d = context.region, context.region_data
     scene = depsgraph.scene
-    settings = scene.btf_render
+    settings = RenderSettings.from_properties(scene.btf_render)
     size = (region.width, region.height)
     if state.scene_dirty or state.drawer is None:
         try:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from ..core.colour import srgb_decode
 from ..core.envmap import Environment
 
 
@@ -39,7 +40,7 @@ def image_pixels(image) -> np.ndarray:
     if rgb.shape[2] == 1:
         rgb = np.repeat(rgb, 3, axis=2)
     if not image.is_float and image.colorspace_settings.name == "sRGB":
-        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+        rgb = srgb_decode(rgb)
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 

@@ -2,7 +2,7 @@
 
 ``DeviceBTF`` wraps a core BTF: the base class still sanitises and chunks the queries on the host
 (NaN/Inf, below-horizon and zero-length rows never reach the device); the kernel evaluates the
-valid rows from the packed table layout that the GLSL back end uses too (btf_addon/gl/tables.py).
+valid rows from the packed table layout that the GLSL back end uses too (btf_addon/core/packed.py).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.model import BTF, Queries
-from ..gl.tables import pack
+from ..core.packed import pack
 from .context import CLContext
 from .programs import build_program
 

@@ -11,13 +11,27 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
-import tempfile
 from pathlib import Path
+
+from ..core.fileio import atomic_write
 
 log = logging.getLogger(__name__)
 
 KERNELS_DIR = Path(__file__).resolve().parents[2] / "kernels"
 _memory_cache: dict[str, object] = {}
+
+
+class OpenCLCompileError(RuntimeError):
+    """A kernel failed to compile: a bug in kernels/ or a driver that rejects valid code, never
+    "no device". ``build_log`` holds the compiler's messages."""
+
+    def __init__(self, kernel: str, device_name: str, build_log: str):
+        self.kernel, self.device_name, self.build_log = kernel, device_name, build_log
+        super().__init__(
+            f"OpenCL compile of kernels/{kernel} failed on {device_name}:\n{build_log.strip()}"
+        )
+
+
 stats = {"compiled": 0, "disk_hits": 0, "memory_hits": 0}
 
 
@@ -92,12 +106,15 @@ def build_program(context, device, name: str, defines: dict[str, int | float]):
             program = None
     if program is None:
         source = expand_includes(KERNELS_DIR / name)
+        unbuilt = cl.Program(context, source)
         try:
-            program = cl.Program(context, source).build(options, devices=[device])
+            program = unbuilt.build(options, devices=[device])
         except cl.RuntimeError as exc:
-            raise RuntimeError(
-                f"OpenCL compile of kernels/{name} failed on {device.name}:\n{exc}"
-            ) from None
+            try:
+                build_log = unbuilt.get_build_info(device, cl.program_build_info.LOG)
+            except cl.Error:
+                build_log = ""
+            raise OpenCLCompileError(name, device.name, build_log or str(exc)) from None
         stats["compiled"] += 1
         _store_binary(program, binary_path)
     if os.environ.get("BTF_CL_BUILD_LOG"):
@@ -117,10 +134,6 @@ def _store_binary(program, path: Path) -> None:
 
     try:
         binary = program.get_info(cl.program_info.BINARIES)[0]
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(binary)
-        os.replace(tmp, path)
+        atomic_write(path, lambda fh: fh.write(binary))
     except (OSError, cl.Error) as exc:
         log.info("OpenCL binary cache not written (%s)", exc)

@@ -1,8 +1,8 @@
-"""The OpenCL final render over a plain-array scene (render/scene.py).
+"""The OpenCL final render over a plain-array scene (scene/scene.py).
 
 Two modes: deterministic direct lighting (exactly the given virtual lights, plus Blender's
 lights) and Monte Carlo path tracing (the World sampled with MIS, bounces). Shadow rays and
-area-light code only where the scene analysis says they can matter (render/analysis.py),
+area-light code only where the scene analysis says they can matter (scene/analysis.py),
 compiled as ``-D`` variants and cached. Work goes in launches sized by measured cost, so
 progress is reported and a cancel honoured at any sample count; device memory holds one band
 of passes at a time.
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.envmap import VirtualLights
-from ..gl.tables import pack
-from ..render.analysis import SceneFeatures, analyse
-from ..render.bvh import build_bvh
-from ..render.lights import pack_lights
-from ..render.scene import Scene
+from ..core.packed import pack
+from ..scene.analysis import SceneFeatures, analyse
+from ..scene.bvh import build_bvh
+from ..scene.lights import pack_lights
+from ..scene.scene import Scene
 from .context import CLContext
 from .programs import build_program
 

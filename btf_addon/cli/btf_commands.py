@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import json
-import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +12,7 @@ from ..core.codecs import bytes_on_disk, load_btf
 from ..core.container import SUFFIX, write_container
 from ..core.dense import tabulate
 from ..core.errors import BTFError
+from ..core.fileio import atomic_write
 from ..core.grid import UBO2003, uniform_ring_grid
 from ..core.imageio import srgb8_from_linear, write_exr, write_png
 from ..core.presets import PRESETS, make_preset, preset_parameters
@@ -120,15 +119,7 @@ def cmd_info(args) -> int:
 
 
 def _save_npy_atomic(path: Path, array: np.ndarray) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npy", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.save(fh, array)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write(path, lambda fh: np.save(fh, array))
 
 
 def load_queries(path: Path) -> np.ndarray:

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from .. import __version__
-from .probes import PROBES
+from ..diagnostics.probes import PROBES
 
 PROBE_TIMEOUT_S = 180
 
@@ -20,7 +20,7 @@ def _probe_in_subprocess(name: str) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_parent, env.get("PYTHONPATH")]))
     package = __package__.rsplit(".", 1)[0]
-    code = f"from {package}.cli.probes import run_probe; run_probe({name!r})"
+    code = f"from {package}.diagnostics.probes import run_probe; run_probe({name!r})"
     try:
         proc = subprocess.run(
             [sys.executable, "-c", code],

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..core.envmap import Environment
 from ..core.errors import BTFError
+from ..core.fileio import atomic_write
 from ..core.imageio import read_exr
 
 
@@ -40,21 +39,16 @@ def cmd_envmap(args) -> int:
         raise BTFError(f"{args.map}: {exc}") from None
     lights = env.virtual_lights(args.lights, seed=args.seed)
     out = args.output if args.output.suffix == ".npz" else args.output.with_suffix(".npz")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".npz", dir=out.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(
-                fh,
-                direction=lights.direction.astype(np.float32),
-                radiance=lights.radiance.astype(np.float32),
-                pdf=lights.pdf.astype(np.float32),
-                nonfinite_pixels=np.int64(env.nonfinite_count),
-            )
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write(
+        out,
+        lambda fh: np.savez(
+            fh,
+            direction=lights.direction.astype(np.float32),
+            radiance=lights.radiance.astype(np.float32),
+            pdf=lights.pdf.astype(np.float32),
+            nonfinite_pixels=np.int64(env.nonfinite_count),
+        ),
+    )
     if env.nonfinite_count:
         print(f"warning: {env.nonfinite_count} NaN/Inf pixels in {args.map} were set to 0")
     return 0

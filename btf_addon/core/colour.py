@@ -39,6 +39,14 @@ def srgb_encode(c: np.ndarray) -> np.ndarray:
     )
 
 
+def srgb_decode(s: np.ndarray) -> np.ndarray:
+    """sRGB transfer curve → linear (the inverse of ``srgb_encode``)."""
+    s = np.asarray(s, dtype=np.float64)
+    return np.where(
+        s <= 0.04045, s / 12.92, np.power((np.maximum(s, 0.04045) + 0.055) / 1.055, 2.4)
+    )
+
+
 def logluv_to_rgb(l_code: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Mantiuk LogLuv (luma code, u', v' scaled by 410) → RGB as the BTFbase HDR decoder does.
 

@@ -22,15 +22,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import struct
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .errors import BTFFormatError, UnsupportedBTFError
+from .fileio import atomic_write
 from .model import BTF
 
 MAGIC = b"BTFMAT\r\n"
@@ -77,29 +76,21 @@ def write_container(path: str | Path, btf: BTF) -> Path:
     prefix = MAGIC + struct.pack("<II", FORMAT_VERSION, len(header)) + header
     prefix += b"\0" * _pad(len(prefix))
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    digest = hashlib.sha256()
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            for chunk in [prefix] + [
-                piece
-                for a in arrays.values()
-                for piece in (
-                    a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes(),
-                    b"\0" * _pad(a.nbytes),
-                )
-            ]:
-                fh.write(chunk)
-                digest.update(chunk)
-            fh.write(digest.digest() + END_MAGIC)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
-    return path
+    def write(fh) -> None:
+        digest = hashlib.sha256()
+        for chunk in [prefix] + [
+            piece
+            for a in arrays.values()
+            for piece in (
+                a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes(),
+                b"\0" * _pad(a.nbytes),
+            )
+        ]:
+            fh.write(chunk)
+            digest.update(chunk)
+        fh.write(digest.digest() + END_MAGIC)
+
+    return atomic_write(path, write)
 
 
 def read_header(path: str | Path) -> tuple[dict[str, Any], bytes]:

@@ -2,35 +2,21 @@
 
 Arrays are (height, width, channels) with row 0 at the **top** of the image, as files store
 them. OpenEXR is imported inside the functions: the rest of the core stays numpy-only. Writes
-are atomic (temporary file in the same folder, then rename), so a failed or interrupted write
+are atomic (core/fileio.py), so a failed or interrupted write
 never leaves a half-written image under the requested name.
 """
 
 from __future__ import annotations
 
-import os
 import struct
-import tempfile
 import zlib
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from .colour import srgb_encode
 from .errors import BTFFormatError
-
-
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+from .fileio import atomic_write, atomic_write_path
 
 
 def write_exr(path: str | Path, rgb: np.ndarray) -> Path:
@@ -39,7 +25,7 @@ def write_exr(path: str | Path, rgb: np.ndarray) -> Path:
 
     rgb = np.ascontiguousarray(rgb, dtype=np.float32)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    return _atomic_write(Path(path), lambda p: OpenEXR.File(header, {"RGB": rgb}).write(str(p)))
+    return atomic_write_path(path, lambda p: OpenEXR.File(header, {"RGB": rgb}).write(str(p)))
 
 
 def read_exr(path: str | Path) -> np.ndarray:
@@ -89,11 +75,10 @@ def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
         + chunk(b"IDAT", zlib.compress(raw, 6))
         + chunk(b"IEND", b"")
     )
-    return _atomic_write(Path(path), lambda p: p.write_bytes(png))
+    return atomic_write(path, lambda fh: fh.write(png))
 
 
 def srgb8_from_linear(rgb: np.ndarray) -> np.ndarray:
     """Linear display values (1.0 = white) → 8-bit sRGB with clipping; NaN → 0."""
     c = np.clip(np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0), 0.0, 1.0)
-    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
-    return np.round(s * 255.0).astype(np.uint8)
+    return np.round(srgb_encode(c) * 255.0).astype(np.uint8)

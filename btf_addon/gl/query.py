@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.model import BTF, Queries
+from ..core.packed import pack
 from .interface import QUERY_SHADER, ShaderCompileError
-from .tables import pack
 
 QUERY_TILE = 1024  # queries per row of the query textures / render target
 

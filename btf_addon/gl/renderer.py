@@ -1,4 +1,4 @@
-"""A standalone GLSL renderer (moderngl, offscreen) for plain-array scenes (render/scene.py).
+"""A standalone GLSL renderer (moderngl, offscreen) for plain-array scenes (scene/scene.py).
 
 The same shaders as the viewport: a depth pre-pass, then batches of K virtual lights added into
 a float target with depth test EQUAL (only the visible surface accumulates), the World drawn
@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.envmap import VirtualLights
-from ..render.lights import pack_lights
 from ..render.progressive import ProgressiveState
-from ..render.scene import Scene
+from ..scene.lights import pack_lights
+from ..scene.scene import Scene
 from .interface import BACKGROUND_SHADER, SURFACE_SHADER
 from .query import compile_program, create_gl_context, upload_tables
 

@@ -1,2 +1,3 @@
-"""bpy-free render logic over plain arrays: final-render driver, progressive viewport state,
-stereo camera maths."""
+"""bpy-free render drivers: the render settings as plain values, light selection for a frame,
+progressive-lighting state and the final render's launch planning. No device code: the
+back ends (cl/, gl/) are driven from here."""

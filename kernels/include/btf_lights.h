@@ -1,4 +1,4 @@
-/* Blender's lights at a surface point (layout and units: btf_addon/render/lights.py).
+/* Blender's lights at a surface point (layout and units: btf_addon/scene/lights.py).
  *
  * Every light is reduced to samples "direction, distance, factor E" with the contribution
  * value(wi) · E, value being the BTF's (apparent BRDF × cos θi). Deterministic mode (smp == 0)

@@ -1,5 +1,5 @@
 /* BTF evaluation from the packed table layout shared with the GLSL back end
- * (btf_addon/gl/tables.py writes it; shaders/btf_*_lib.glsl read the same layout). One material
+ * (btf_addon/core/packed.py writes it; shaders/btf_*_lib.glsl read the same layout). One material
  * is two streams: `I` (integers stored exactly as floats) and `F` (floats), each starting with a
  * header of sizes and table offsets. Reference for every step: btf_addon/core (numpy). */
 #ifndef BTF_PACKED_H
@@ -10,7 +10,7 @@
 #define ITAB(i) ((int)I[(i)])
 #define FTAB(i) (F[(i)])
 
-/* Header slots: keep in sync with btf_addon/gl/tables.py INT_HEADER / FLOAT_HEADER. */
+/* Header slots: keep in sync with btf_addon/core/packed.py INT_HEADER / FLOAT_HEADER. */
 enum {
   H_CODEC = 1, H_N_BETA, H_N_ALPHA, H_N_THETA, H_N_PHI, H_WIDTH, H_HEIGHT, H_ROWS_OFFSET,
   H_COLS_OFFSET, H_HDR, H_COS_BETA, H_INDEX_AB, H_PDF2_COLOURS, H_PDF2_SLICES, H_PDF2_INDICES,

@@ -1,5 +1,5 @@
 /* What both final-render kernels compute for a pixel before lighting: the camera ray and, at
- * its nearest hit, the shading frame (layout of corners: btf_addon/render/scene.py). */
+ * its nearest hit, the shading frame (layout of corners: btf_addon/scene/scene.py). */
 #ifndef BTF_SURFACE_H
 #define BTF_SURFACE_H
 

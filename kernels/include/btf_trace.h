@@ -1,4 +1,4 @@
-/* Ray–triangle and BVH traversal (layout: btf_addon/render/bvh.py). */
+/* Ray–triangle and BVH traversal (layout: btf_addon/scene/bvh.py). */
 #ifndef BTF_TRACE_H
 #define BTF_TRACE_H
 

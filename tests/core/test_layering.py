@@ -12,7 +12,9 @@ PURE_PACKAGES = [
     "btf_addon.core",
     "btf_addon.cl",
     "btf_addon.gl",
+    "btf_addon.scene",
     "btf_addon.render",
+    "btf_addon.diagnostics",
     "btf_addon.controllers",
     "btf_addon.cli.main",
 ]

@@ -6,8 +6,8 @@ import numpy as np
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.envmap import Environment, VirtualLights
-from btf_addon.render.primitives import plane, uv_sphere
-from btf_addon.render.scene import Camera, Material, Scene, look_at
+from btf_addon.scene.primitives import plane, uv_sphere
+from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 
 def sphere_scene(btf, env=None, **camera):

@@ -11,9 +11,9 @@ from helpers import shared_material
 from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from btf_addon.core.envmap import Environment, VirtualLights
 from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.render.analysis import analyse
-from btf_addon.render.primitives import plane, uv_sphere
-from btf_addon.render.scene import Camera, Material, Scene, look_at
+from btf_addon.scene.analysis import analyse
+from btf_addon.scene.primitives import plane, uv_sphere
+from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 pytestmark = pytest.mark.opencl
 
@@ -210,7 +210,7 @@ def test_glsl_and_opencl_agree_on_blender_lights(cl_context, gl_ctx):
     bound as for virtual lights, and each light type adds light where it should."""
     from btf_addon.cl.renderer import CLRenderer
     from btf_addon.gl.renderer import GLSLRenderer
-    from btf_addon.render.lights import AreaLight, PointLight, SunLight
+    from btf_addon.scene.lights import AreaLight, PointLight, SunLight
 
     env = Environment.constant((0.0, 0.0, 0.0))
     lights = [

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from btf_addon.render.primitives import plane, uv_sphere
 from btf_addon.render.progressive import ProgressiveState
-from btf_addon.render.scene import Camera, look_at
-from btf_addon.render.tangents import corner_tangents
+from btf_addon.scene.primitives import plane, uv_sphere
+from btf_addon.scene.scene import Camera, look_at
+from btf_addon.scene.tangents import corner_tangents
 
 
 def test_plane_tangent_follows_u():

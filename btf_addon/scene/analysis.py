@@ -25,7 +25,6 @@ MAX_CONVEXITY_WORK = 50_000_000
 class SceneFeatures:
     shadows: bool
     environment_texture: bool
-    codecs: frozenset[str]
     area_lights: bool = False
 
     def defines(self) -> dict[str, int]:
@@ -61,6 +60,5 @@ def analyse(scene: Scene) -> SceneFeatures:
     return SceneFeatures(
         shadows=shadows,
         environment_texture=env.width * env.height > 1,
-        codecs=frozenset(scene.materials[m.material].btf.meta.codec for m in scene.meshes),
         area_lights=any(isinstance(light, AreaLight) for light in scene.lights),
     )

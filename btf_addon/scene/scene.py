@@ -141,7 +141,7 @@ class Scene:
     camera: Camera
     environment: Environment
     messages: list[str] = field(default_factory=list)
-    lights: list[Light] = field(default_factory=list)  # Blender lights: render/lights.py
+    lights: list[Light] = field(default_factory=list)  # Blender lights: scene/lights.py
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from ..core.dense import DenseBTF
-from ..core.errors import UnsupportedBTFError
-from ..core.mlvq import MLVQBTF
-from ..core.model import BTF
+from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from .dense import DenseBTF
+from .errors import UnsupportedBTFError
+from .mlvq import MLVQBTF
+from .model import BTF
 
 TABLE_WIDTH = 4096
 HEADER_INTS = 40
