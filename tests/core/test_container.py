@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from helpers import random_hemisphere, shared_material
 
-from btf_addon.core import container
+from btf_addon.core import container, fileio
 from btf_addon.core.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.codecs import load_btf
 from btf_addon.core.dense import tabulate
@@ -90,7 +90,7 @@ def test_failed_write_leaves_no_file_and_no_temporary(tmp_path, monkeypatch):
 
     with pytest.raises(ValueError, match="unsupported dtype"):
         container.write_container(target, Exploding(0.5, 0.5))
-    monkeypatch.setattr(container.os, "fsync", _raise_oserror)
+    monkeypatch.setattr(fileio.os, "fsync", _raise_oserror)  # the disk fills at the end
     with pytest.raises(OSError):
         container.write_container(target, GGXBTF(0.5, 0.5))
     assert target.read_bytes() == before  # the previous file is intact
