@@ -18,7 +18,7 @@ float mlvq_pdf1(int s, int i, float w, int n_beta)
 vec2 mlvq_ab(int c, int i, float w, int n_beta)
 {
   int row = itab(H_INDEX_AB) + c * n_beta;
-  int ab = itab(H_F_AB);
+  int ab = itab(H_F_AB_COLORS);
   int a = itab(row + i), b = itab(row + i + 1);
   vec2 ca = vec2(ftab(ab + 2 * a), ftab(ab + 2 * a + 1));
   vec2 cb = vec2(ftab(ab + 2 * b), ftab(ab + 2 * b + 1));

@@ -10,17 +10,18 @@ import gpu
 import numpy as np
 from gpu_extras.batch import batch_for_shader
 
-from ..core.model import BTF, Queries
+from ..core.model import BTF, DelegatingBTF, Queries
 from ..core.packed import pack
 from ..gl.interface import QUERY_SHADER
 from ..gl.query import query_textures
 from .gpu_draw import shader, texture
 
 
-class BlenderGPUBTF(BTF):
+class BlenderGPUEvaluator:
+    """Valid queries → (M, 3) float64 values by the query shader in Blender's ``gpu`` module
+    (offscreen); the BTF's packed tables stay uploaded between calls."""
+
     def __init__(self, btf: BTF):
-        self.btf = btf
-        self.meta = btf.meta
         packed = pack(btf)
         self.shader = shader(QUERY_SHADER)
         self.int_tex = texture(packed.ints, "R32F")
@@ -31,7 +32,7 @@ class BlenderGPUBTF(BTF):
             {"pos": [(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)]},
         )
 
-    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+    def __call__(self, q: Queries) -> np.ndarray:
         n = len(q.uv)
         a, b, (w, h) = query_textures(q)
         tex_a = texture(a, "RGBA32F")
@@ -54,8 +55,7 @@ class BlenderGPUBTF(BTF):
             offscreen.free()
         return out[:n, :3].astype(np.float64)
 
-    def tables(self):
-        return self.btf.tables()
 
-    def params(self):
-        return self.btf.params()
+def blender_gpu_btf(btf: BTF) -> DelegatingBTF:
+    """``btf`` evaluated by the GLSL shaders in Blender's ``gpu`` module."""
+    return DelegatingBTF(btf, BlenderGPUEvaluator(btf))

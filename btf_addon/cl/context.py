@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .devices import best_device_index, list_devices
+from .devices import OpenCLUnavailableError, best_device_index, list_devices
 
-
-class OpenCLUnavailableError(RuntimeError):
-    """No usable OpenCL device: the message says why and what to install."""
+__all__ = ["CLContext", "OpenCLUnavailableError", "create_context"]
 
 
 @dataclass
@@ -26,7 +24,7 @@ def create_context(device_index: int | None = None) -> CLContext:
     """Device ``device_index`` of ``list_devices()``, or the best one (GPU, else CPU)."""
     try:
         infos = list_devices()
-    except RuntimeError as exc:
+    except OpenCLUnavailableError as exc:  # only discovery: compile errors are never "no device"
         raise OpenCLUnavailableError(
             f"{exc}. Install a GPU's OpenCL driver or the CPU driver: "
             "pip install pocl-binary-distribution"

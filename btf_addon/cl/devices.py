@@ -5,6 +5,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 
+class OpenCLUnavailableError(RuntimeError):
+    """No usable OpenCL device: the message says why and what to install. Only device discovery
+    raises it; a kernel that fails to compile is ``programs.OpenCLCompileError`` instead."""
+
+
 @dataclass(frozen=True)
 class DeviceInfo:
     platform: str
@@ -19,16 +24,16 @@ class DeviceInfo:
 
 
 def list_devices() -> list[DeviceInfo]:
-    """All OpenCL devices of all platforms. Raises RuntimeError with a readable reason when
-    pyopencl is missing or no platform (ICD) is installed."""
+    """All OpenCL devices of all platforms. Raises OpenCLUnavailableError (a RuntimeError) with a
+    readable reason when pyopencl is missing or no platform (ICD) is installed."""
     try:
         import pyopencl as cl
     except ImportError as exc:
-        raise RuntimeError(f"pyopencl is not installed ({exc})") from None
+        raise OpenCLUnavailableError(f"pyopencl is not installed ({exc})") from None
     try:
         platforms = cl.get_platforms()
     except cl.Error as exc:
-        raise RuntimeError(f"no OpenCL platform found ({exc})") from None
+        raise OpenCLUnavailableError(f"no OpenCL platform found ({exc})") from None
     devices = []
     for platform in platforms:
         try:

@@ -1,27 +1,30 @@
 """BTF evaluation on an OpenCL device (kernels/btf_eval.cl), with the numpy codecs as reference.
 
-``DeviceBTF`` wraps a core BTF: the base class still sanitises and chunks the queries on the host
-(NaN/Inf, below-horizon and zero-length rows never reach the device); the kernel evaluates the
-valid rows from the packed table layout that the GLSL back end uses too (btf_addon/core/packed.py).
+``device_btf(btf, cl_context)`` wraps a core BTF in the one delegating wrapper
+(core/model.py ``DelegatingBTF``): the base class still sanitises and chunks the queries on the
+host (NaN/Inf, below-horizon and zero-length rows never reach the device); ``KernelEvaluator``
+evaluates the valid rows from the packed table layout that the GLSL back end uses too
+(btf_addon/core/packed.py).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..core.model import BTF, Queries
+from ..core.model import BTF, DelegatingBTF, Queries
 from ..core.packed import pack
 from .context import CLContext
 from .programs import build_program
 
 
-class DeviceBTF(BTF):
+class KernelEvaluator:
+    """Valid queries → (M, 3) float64 values by ``eval_btf`` on one device; the BTF's packed
+    tables stay on the device between calls."""
+
     def __init__(self, btf: BTF, cl_context: CLContext):
         import pyopencl as cl
 
         packed = pack(btf)  # raises UnsupportedBTFError for procedural codecs
-        self.btf = btf
-        self.meta = btf.meta
         self.ctx = cl_context
         self._cl = cl
         program = build_program(cl_context.context, cl_context.device, "btf_eval.cl", {})
@@ -37,7 +40,7 @@ class DeviceBTF(BTF):
             hostbuf=np.ascontiguousarray(array, dtype=np.float32),
         )
 
-    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+    def __call__(self, q: Queries) -> np.ndarray:
         cl = self._cl
         n = len(q.uv)
         out = np.empty((n, 3), dtype=np.float32)
@@ -60,8 +63,11 @@ class DeviceBTF(BTF):
         cl.enqueue_copy(self.ctx.queue, out, out_buf)
         return out.astype(np.float64)
 
-    def tables(self):
-        return self.btf.tables()
 
-    def params(self):
-        return self.btf.params()
+def device_btf(btf: BTF, cl_context: CLContext) -> DelegatingBTF:
+    """``btf`` evaluated on the context's device (same ``meta``, ``tables()``, ``params()``)."""
+    return DelegatingBTF(btf, KernelEvaluator(btf, cl_context))
+
+
+#: The former class name, kept while cli/btf_commands.py still calls ``DeviceBTF(btf, ctx)``.
+DeviceBTF = device_btf

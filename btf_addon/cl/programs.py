@@ -1,8 +1,12 @@
 """Build OpenCL programs from kernels/*.cl, cached in memory and on disk.
 
-Key: (platform, device, driver version, define set, hash of the .cl file and every header in
-kernels/include). The second build of the same key in a process is free; in a new process the
-device binary is loaded from the disk cache, so a render does not wait for the compiler again.
+Every build gets the packed table layout (core/packed.py ``defines()``: header slots, codec
+ids) as ``-D`` options beside the caller's variant defines. Key: (platform, device, driver
+version, the full define set, hash of the source as compiled, i.e. the .cl with its headers
+expanded). The second build of the same key in a process is free; in a new process the device
+binary is loaded from the disk cache, so a render does not wait for the compiler again.
+A kernel that does not compile raises ``OpenCLCompileError`` (never "no device"); its build log
+names kernels/<file> and line through the ``#line`` directives ``expand_includes`` writes.
 Set BTF_CL_BUILD_LOG=1 to print compiler logs; BTF_CL_CACHE to move the disk cache.
 """
 
@@ -13,6 +17,7 @@ import logging
 import os
 from pathlib import Path
 
+from ..core import packed
 from ..core.fileio import atomic_write
 
 log = logging.getLogger(__name__)
@@ -28,7 +33,7 @@ class OpenCLCompileError(RuntimeError):
     def __init__(self, kernel: str, device_name: str, build_log: str):
         self.kernel, self.device_name, self.build_log = kernel, device_name, build_log
         super().__init__(
-            f"OpenCL compile of kernels/{kernel} failed on {device_name}:\n{build_log.strip()}"
+            f"OpenCL compile of {kernel} failed on {device_name}:\n{build_log.strip()}"
         )
 
 
@@ -42,38 +47,62 @@ def cache_dir() -> Path:
     return Path(base) / "btf_materials" / "opencl"
 
 
+def source_name(path: Path) -> str:
+    """How compiler messages name a source file: relative to the repository (kernels/x.cl,
+    kernels/include/x.h) when it lies there, else its full path."""
+    try:
+        return path.resolve().relative_to(KERNELS_DIR.parent).as_posix()
+    except ValueError:
+        return path.resolve().as_posix()
+
+
 def expand_includes(path: Path, seen: set[Path] | None = None) -> str:
     """The source with ``#include "x.h"`` lines replaced by kernels/include/x.h (once each).
 
     Done here rather than with ``-I``: install paths may contain spaces or non-ASCII characters
     that OpenCL compilers' option parsing handles differently, and the text hashed for the cache
-    is then exactly the text compiled."""
+    is then exactly the text compiled. ``#line`` directives before and after every expanded
+    header keep compiler messages at the real file and line (kernels/include/x.h:12)."""
     seen = set() if seen is None else seen
-    out = []
-    for line in path.read_text().splitlines():
+    name = source_name(path).replace('"', "")  # a quote would end the #line string
+    out = [f'#line 1 "{name}"']
+    for number, line in enumerate(path.read_text().splitlines(), start=1):
         stripped = line.strip()
         if stripped.startswith('#include "') and stripped.endswith('"'):
             header = KERNELS_DIR / "include" / stripped[len('#include "') : -1]
             if header not in seen:
                 seen.add(header)
                 out.append(expand_includes(header, seen))
+            out.append(f'#line {number + 1} "{name}"')  # back in this file, after the include
             continue
         out.append(line)
     return "\n".join(out)
 
 
-def _source_digest(name: str) -> str:
-    h = hashlib.sha256()
-    for path in [KERNELS_DIR / name, *sorted((KERNELS_DIR / "include").glob("*.h"))]:
-        h.update(path.name.encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()
+def build_defines(defines: dict[str, int | float]) -> dict[str, int | float]:
+    """The packed layout's defines plus a program's own variant defines (which may not
+    redefine a layout name: the layout has one definition)."""
+    layout = packed.defines()
+    clash = sorted(set(layout) & set(defines))
+    if clash:
+        raise ValueError(f"program defines {clash} would override the packed table layout")
+    return {**layout, **defines}
+
+
+def _options(defines: dict[str, int | float]) -> list[str]:
+    return [f"-D{k}={v}" for k, v in sorted(build_defines(defines).items())]
 
 
 def program_key(device, name: str, defines: dict[str, int | float]) -> str:
-    flags = " ".join(f"-D{k}={v}" for k, v in sorted(defines.items()))
+    digest = hashlib.sha256(expand_includes(KERNELS_DIR / name).encode()).hexdigest()
     ident = "|".join(
-        [device.platform.name, device.name, device.driver_version, flags, _source_digest(name)]
+        [
+            device.platform.name,
+            device.name,
+            device.driver_version,
+            " ".join(_options(defines)),
+            digest,
+        ]
     )
     return hashlib.sha256(ident.encode()).hexdigest()[:32]
 
@@ -94,7 +123,7 @@ def build_program(context, device, name: str, defines: dict[str, int | float]):
     if memory_key in _memory_cache:
         stats["memory_hits"] += 1
         return _memory_cache[memory_key]
-    options = [f"-D{k}={v}" for k, v in sorted(defines.items())]
+    options = _options(defines)
     binary_path = cache_dir() / f"{key}.bin"
     program = None
     if binary_path.is_file():
@@ -114,7 +143,9 @@ def build_program(context, device, name: str, defines: dict[str, int | float]):
                 build_log = unbuilt.get_build_info(device, cl.program_build_info.LOG)
             except cl.Error:
                 build_log = ""
-            raise OpenCLCompileError(name, device.name, build_log or str(exc)) from None
+            raise OpenCLCompileError(
+                source_name(KERNELS_DIR / name), device.name.strip(), build_log or str(exc)
+            ) from None
         stats["compiled"] += 1
         _store_binary(program, binary_path)
     if os.environ.get("BTF_CL_BUILD_LOG"):

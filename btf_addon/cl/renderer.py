@@ -3,9 +3,9 @@
 Two modes: deterministic direct lighting (exactly the given virtual lights, plus Blender's
 lights) and Monte Carlo path tracing (the World sampled with MIS, bounces). Shadow rays and
 area-light code only where the scene analysis says they can matter (scene/analysis.py),
-compiled as ``-D`` variants and cached. Work goes in launches sized by measured cost, so
-progress is reported and a cancel honoured at any sample count; device memory holds one band
-of passes at a time.
+compiled as ``-D`` variants and cached. Work goes in launches sized by measured cost
+(render/launch.py plans them), so progress is reported and a cancel honoured at any sample
+count; device memory holds one band of passes at a time.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.envmap import VirtualLights
 from ..core.packed import pack
+from ..render.launch import LaunchPlan
 from ..scene.analysis import SceneFeatures, analyse
 from ..scene.bvh import build_bvh
 from ..scene.lights import pack_lights
@@ -25,10 +26,6 @@ from ..scene.scene import Scene
 from .context import CLContext
 from .programs import build_program
 
-BAND_PIXELS = 1 << 17  # most pixels per kernel launch: bounds device memory
-FIRST_LAUNCH_PIXELS = 1 << 14  # the first launch measures the cost per pixel
-LAUNCH_SECONDS = 0.1  # target per launch: cancel answers within a few times this
-PASS_SECONDS = 2.0  # target per progressive pass of the Sampled mode (preview cadence)
 KERNELS = "render_direct.cl"  # both final-render kernels
 LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
 
@@ -166,9 +163,9 @@ class CLRenderer:
     def _render_in_launches(
         self, launch, channels: tuple[int, ...], progress, samples: int = 1, preview=None
     ) -> list[np.ndarray]:
-        """Render in launches of (rows, samples) sized by measured cost, so that each takes
-        about LAUNCH_SECONDS however heavy a pixel is (lights, samples, bounces): progress is
-        reported and a cancel honoured between launches.
+        """Render in launches of (rows, samples) planned by render/launch.py from measured cost,
+        so that each takes about LAUNCH_SECONDS however heavy a pixel is (lights, samples,
+        bounces): progress is reported and a cancel honoured between launches.
 
         ``launch(row0, rows, first_sample, count, buffers)`` enqueues the kernel for those rows
         and samples [first_sample, first_sample + count), writing per-pixel means, one buffer
@@ -179,16 +176,13 @@ class CLRenderer:
         Returns (h, w, k) arrays averaged over every sample rendered."""
         cl = self.cl
         w, h = self.width, self.height
-        max_rows = max(1, min(h, BAND_PIXELS // w))  # device memory: one band of passes
+        plan = LaunchPlan(w, h, samples)
         mf = cl.mem_flags
         buffers = [
-            cl.Buffer(self.ctx.context, mf.WRITE_ONLY, max_rows * w * 4 * k) for k in channels
+            cl.Buffer(self.ctx.context, mf.WRITE_ONLY, plan.max_rows * w * 4 * k) for k in channels
         ]
         sums = [np.zeros((h, w, k), np.float32) for k in channels]
         counts = np.zeros(h, np.int64)  # samples rendered per row
-        cost = None  # seconds per pixel-sample, measured (decaying maximum)
-        last_work = 0  # rows × samples of the last launch
-        rows = max(1, min(max_rows, FIRST_LAUNCH_PIXELS // w))
 
         def images():
             if counts.max() <= 1:  # one sample (the deterministic mode): sums are the means
@@ -196,37 +190,19 @@ class CLRenderer:
             weight = (1.0 / np.maximum(counts, 1)).astype(np.float32)[:, None, None]
             return [total * weight for total in sums]
 
-        first = 0
-        while first < samples:
-            count = 1
-            if cost is not None:
-                per_pass = PASS_SECONDS / (cost * w * h)
-                per_row = LAUNCH_SECONDS / (cost * w)
-                count = int(np.clip(min(per_pass, per_row), 1, samples - first))
-            row0 = 0
-            while row0 < h:
-                if cost is not None:
-                    # Costs differ across the image (sky rows are cheap): grow a launch at most
-                    # 2× over the last one, so a cheap region cannot talk it into a huge one.
-                    limit = min(max_rows, max(1, 2 * last_work // count))
-                    rows = int(np.clip(LAUNCH_SECONDS / (cost * w * count), 1, limit))
-                band = min(rows, h - row0)
-                t0 = time.perf_counter()
-                launch(row0, band, first, count, buffers)
-                for buf, total in zip(buffers, sums, strict=True):
-                    host = np.empty((band, w, total.shape[2]), dtype=np.float32)
-                    cl.enqueue_copy(self.ctx.queue, host, buf)  # waits for the kernel
-                    total[row0 : row0 + band] += host * count
-                counts[row0 : row0 + band] += count
-                measured = max(time.perf_counter() - t0, 1e-6) / (band * w * count)
-                cost = measured if cost is None else max(measured, 0.5 * cost)
-                last_work = band * count
-                row0 += band
-                done = (first * h + row0 * count) / (samples * h)
-                if progress is not None and not progress(done):
-                    return images()
-            first += count
-            if preview is not None and first < samples:
+        for step in plan:
+            rows, count = slice(step.row0, step.row0 + step.rows), step.samples
+            t0 = time.perf_counter()
+            launch(step.row0, step.rows, step.first_sample, count, buffers)
+            for buf, total in zip(buffers, sums, strict=True):
+                host = np.empty((step.rows, w, total.shape[2]), dtype=np.float32)
+                cl.enqueue_copy(self.ctx.queue, host, buf)  # waits for the kernel
+                total[rows] += host * count
+            counts[rows] += count
+            plan.record(step, time.perf_counter() - t0)
+            if progress is not None and not progress(step.done):
+                return images()
+            if preview is not None and step.ends_pass and not step.last:
                 preview(images())
         return images()
 

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .model import BTF, BTFMeta, Queries
+from .packed import TableWriter, register_codec
 
 #: Below this roughness the GGX lobe is a near-delta that no tabulation or sampler resolves.
 MIN_ROUGHNESS = 1e-2
@@ -202,3 +203,28 @@ class PrincipledBTF(BTF):
             params["specular_f0"],
             tuple(params["tile_size_mm"]),
         )
+
+
+# --- GPU tables (core/packed.py): parameters in the float header, evaluated by btf_evaluate in
+# kernels/include/btf_packed.h and shaders/btf_eval_lib.glsl --------------------------------
+def _pack_lambertian(btf: LambertianBTF, out: TableWriter) -> None:
+    out.set(albedo=btf.albedo)
+
+
+def _pack_ggx(btf: GGXBTF, out: TableWriter) -> None:
+    out.set(albedo=btf.albedo, alpha2=btf.alpha2)
+
+
+def _pack_principled(btf: PrincipledBTF, out: TableWriter) -> None:
+    out.set(
+        albedo=btf.base_color,
+        alpha2=btf.alpha2,
+        metallic=btf.metallic,
+        diffuse_roughness=btf.diffuse_roughness,
+        specular_f0=btf.specular_f0,
+    )
+
+
+register_codec("lambertian", 2, _pack_lambertian)
+register_codec("ggx", 3, _pack_ggx)
+register_codec("principled", 5, _pack_principled)

@@ -14,6 +14,7 @@ import numpy as np
 from .errors import BTFFormatError
 from .grid import UBO2003, RingGrid
 from .model import BTF, BTFMeta, Queries, wrap_texel
+from .packed import TableWriter, register_codec
 
 
 class DenseBTF(BTF):
@@ -115,3 +116,21 @@ def tabulate(
         name=f"{btf.meta.name} (tabulated)",
         tile_size_mm=btf.meta.tile_size_mm,
     )
+
+
+def _pack(btf: DenseBTF, out: TableWriter) -> None:
+    """GPU tables (core/packed.py; read by dense_evaluate in kernels/include/btf_packed.h and
+    shaders/btf_dense_lib.glsl)."""
+    out.set(width=btf.meta.width, height=btf.meta.height, n_lights=btf.light_grid.size)
+    out.set(f_data=out.float_table(btf.data))
+    for prefix, grid in (("view", btf.view_grid), ("light", btf.light_grid)):
+        out.set(
+            **{
+                f"n_{prefix}_rings": len(grid.counts),
+                f"f_{prefix}_theta": out.float_table(np.asarray(grid.theta_deg)),
+                f"{prefix}_offsets": out.int_table(np.concatenate([[0], np.cumsum(grid.counts)])),
+            }
+        )
+
+
+register_codec("dense", 4, _pack)

@@ -12,6 +12,7 @@ anywhere, zero-length directions, either direction below the horizon (θ > 90°)
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -127,6 +128,30 @@ class BTF:
             # The contract is finite and non-negative whatever a codec's arithmetic did.
             out[r] = np.nan_to_num(np.maximum(values, 0.0), nan=0.0, posinf=0.0)
         return out
+
+
+class DelegatingBTF(BTF):
+    """A BTF evaluated somewhere else (an OpenCL device, GLSL on moderngl or in Blender).
+
+    ``btf``: the wrapped BTF, which supplies ``meta``, ``tables()`` and ``params()`` (so the
+    container and the packed layout see the original). ``evaluate_valid``: (M,) valid
+    ``Queries`` → (M, 3) values, called per chunk after this base class has sanitised the
+    input, so a back end never sees NaN, zero-length or below-horizon rows.
+    """
+
+    def __init__(self, btf: BTF, evaluate_valid: Callable[[Queries], np.ndarray]):
+        self.btf = btf
+        self.meta = btf.meta
+        self.evaluator = evaluate_valid
+
+    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+        return self.evaluator(q)
+
+    def tables(self) -> dict[str, np.ndarray]:
+        return self.btf.tables()
+
+    def params(self) -> dict[str, Any]:
+        return self.btf.params()
 
 
 def _canonical(theta_deg: np.ndarray, phi_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,39 +1,50 @@
-"""Pack a BTF's tables into two 2D textures for GLSL (layout read by shaders/btf_tables_lib.glsl).
+"""The packed GPU table layout: the one definition the OpenCL kernels and the GLSL shaders read.
 
-Every table is flattened and appended to an integer or a float stream; each stream is laid out
-row by row TABLE_WIDTH texels wide (wide tables such as wallpaper's 31,291 × 11 PDF2 scales
-would exceed the 16,384-texel height limit as 2D textures of their own). The first texels hold a
-header — sizes and each table's offset — so shaders need no push constants for the layout and
-any number of tables costs two samplers (the limit is 16 on Metal).
+A material is two streams, one of integers and one of floats, each laid out row by row
+TABLE_WIDTH texels wide (wide tables such as wallpaper's 31,291 × 11 PDF2 scales would exceed the
+16,384-texel height limit as 2D textures of their own). Each stream starts with a header —
+sizes and every table's offset — so shaders need no push constants for the layout and any number
+of tables costs two samplers (the limit is 16 on Metal).
 
-Both streams are float32 textures (R32F): Blender's ``gpu`` module only uploads float data, and
-integers are exact in float32 up to 2^24, which ``pack`` checks. (Reinterpreting int bits as
-floats would be exact too, but small integers become denormals that some GPUs flush to zero.)
+Both streams are float32 (R32F textures, float buffers): Blender's ``gpu`` module only uploads
+float data, and integers are exact in float32 up to 2^24, which ``pack`` checks. (Reinterpreting
+int bits as floats would be exact too, but small integers become denormals that some GPUs flush
+to zero.)
+
+Device code never spells a slot number: ``defines()`` turns INT_HEADER, FLOAT_HEADER, the codec
+ids and the sizes below into ``H_*``, ``F_*``, ``CODEC_*``, ``TABLE_WIDTH``… which
+cl/programs.py passes as ``-D`` options and gl/interface.py as ``#define``s / create-info
+defines at build time (kernels/include/btf_packed.h and shaders/btf_tables_lib.glsl
+``#error`` without them).
+
+Codecs register themselves beside their own code (``register_codec`` at the end of mlvq.py,
+dense.py, analytic.py): a codec id and a function that writes the codec's header slots and
+tables. ``pack`` dispatches on ``btf.meta.codec`` through that registry.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from .dense import DenseBTF
 from .errors import UnsupportedBTFError
-from .mlvq import MLVQBTF
-from .model import BTF
+from .model import BTF, DelegatingBTF
 
-TABLE_WIDTH = 4096
-HEADER_INTS = 40
-HEADER_FLOATS = 12
-CODEC_IDS = {"mlvq": 1, "lambertian": 2, "ggx": 3, "dense": 4, "principled": 5}
-MAGIC = 0xB7F1  # header check value, exact in float32
+TABLE_WIDTH = 4096  # texels per row of both streams
+HEADER_INTS = 40  # integer header slots reserved (INT_HEADER uses the first ones)
+HEADER_FLOATS = 12  # float header slots reserved
+MAGIC = 0xB7F1  # header check value in slot H_MAGIC, exact in float32
 MAX_EXACT_INT = 1 << 24
 
-# Integer header slots; shaders/btf_tables_lib.glsl names the same numbers (H_*).
-INT_HEADER = [
+#: Integer header slots in order; device code names slot i ``H_<NAME>`` (H_CODEC = 1, ...).
+#: ``f_*`` slots hold an offset into the float stream, the other table slots offsets into the
+#: integer stream.
+INT_HEADER: tuple[str, ...] = (
     "magic",
     "codec",
+    # MLVQ
     "n_beta",
     "n_alpha",
     "n_theta",
@@ -58,6 +69,7 @@ INT_HEADER = [
     "f_pdf4_scale",
     "f_pdf6_scale",
     "f_beta",
+    # dense (shares width and height)
     "n_lights",
     "f_data",
     "n_view_rings",
@@ -66,18 +78,33 @@ INT_HEADER = [
     "n_light_rings",
     "f_light_theta",
     "light_offsets",
-]
-FLOAT_HEADER = [
-    "value_scale",
-    "hdr_value",
-    "albedo_r",
-    "albedo_g",
-    "albedo_b",
-    "alpha2",
-    "metallic",
-    "diffuse_roughness",
-    "specular_f0",
-]
+)
+
+#: Float header slots in order as (name, number of floats); device code names the first float
+#: of each ``F_<NAME>`` (F_ALBEDO = 2 is followed by its green and blue).
+FLOAT_HEADER: tuple[tuple[str, int], ...] = (
+    ("value_scale", 1),
+    ("hdr_value", 1),
+    ("albedo", 3),
+    ("alpha2", 1),
+    ("metallic", 1),
+    ("diffuse_roughness", 1),
+    ("specular_f0", 1),
+)
+
+
+def _float_slots() -> dict[str, tuple[int, int]]:
+    slots, cursor = {}, 0
+    for name, size in FLOAT_HEADER:
+        slots[name] = (cursor, size)
+        cursor += size
+    return slots
+
+
+INT_SLOT = {name: i for i, name in enumerate(INT_HEADER)}
+FLOAT_SLOT = _float_slots()  # name → (first slot, size)
+assert len(INT_HEADER) <= HEADER_INTS
+assert sum(size for _, size in FLOAT_HEADER) <= HEADER_FLOATS
 
 
 @dataclass
@@ -89,108 +116,117 @@ class PackedTables:
     floats: np.ndarray
 
 
-def _layout(stream: np.ndarray, dtype) -> np.ndarray:
+class TableWriter:
+    """What a codec's pack function fills: header slots (``set``) and appended tables
+    (``int_table`` / ``float_table`` return the table's offset in its stream)."""
+
+    def __init__(self) -> None:
+        self.int_header = np.zeros(HEADER_INTS, dtype=np.int32)
+        self.float_header = np.zeros(HEADER_FLOATS, dtype=np.float32)
+        self._ints: list[np.ndarray] = []
+        self._floats: list[np.ndarray] = []
+        self._int_cursor, self._float_cursor = HEADER_INTS, HEADER_FLOATS
+
+    def set(self, **slots: float | Sequence[float]) -> None:
+        """Header values by slot name (INT_HEADER or FLOAT_HEADER); a float slot of size k
+        takes k values. An unknown name is a KeyError, so a typo cannot pass silently."""
+        for name, value in slots.items():
+            if name in INT_SLOT:
+                self.int_header[INT_SLOT[name]] = int(value)
+                continue
+            first, size = FLOAT_SLOT[name]
+            values = np.asarray(value, dtype=np.float32).ravel()
+            if values.size != size:
+                raise ValueError(f"header slot {name!r} holds {size} floats, got {values.size}")
+            self.float_header[first : first + size] = values
+
+    def int_table(self, table: np.ndarray) -> int:
+        flat = np.ascontiguousarray(table).ravel().astype(np.int32)
+        offset, self._int_cursor = self._int_cursor, self._int_cursor + flat.size
+        self._ints.append(flat)
+        return offset
+
+    def float_table(self, table: np.ndarray) -> int:
+        flat = np.ascontiguousarray(table).ravel().astype(np.float32)
+        offset, self._float_cursor = self._float_cursor, self._float_cursor + flat.size
+        self._floats.append(flat)
+        return offset
+
+    def finish(self, name: str) -> PackedTables:
+        int_stream = np.concatenate([self.int_header, *self._ints])
+        float_stream = np.concatenate([self.float_header, *self._floats])
+        if int_stream.max() >= MAX_EXACT_INT or int_stream.min() <= -MAX_EXACT_INT:
+            raise UnsupportedBTFError(
+                f"{name}: index tables too large for the GLSL back end (an index or offset "
+                "reaches 2^24); use the OpenCL or numpy back end"
+            )
+        return PackedTables(_layout(int_stream), _layout(float_stream))
+
+
+@dataclass(frozen=True)
+class PackedCodec:
+    """A codec the GPU back ends evaluate: its id (``CODEC_<NAME>`` in device code) and the
+    function writing its header slots and tables."""
+
+    name: str
+    codec_id: int
+    pack: Callable[[BTF, TableWriter], None]
+
+
+_CODECS: dict[str, PackedCodec] = {}
+
+
+def register_codec(name: str, codec_id: int, pack_fn: Callable[[BTF, TableWriter], None]) -> None:
+    """Make ``name`` (a ``BTFMeta.codec``) packable; called once by the codec's own module.
+    Ids are device constants: never reuse one, never 0 (an empty header)."""
+    taken = {c.codec_id: c.name for c in _CODECS.values() if c.name != name}
+    if codec_id <= 0 or codec_id in taken:
+        raise ValueError(f"codec id {codec_id} for {name!r} is invalid or taken by {taken}")
+    _CODECS[name] = PackedCodec(name, codec_id, pack_fn)
+
+
+def codecs() -> dict[str, PackedCodec]:
+    """Every registered codec by name (imports the codec modules, so all have registered)."""
+    from . import codecs as _all_codecs  # noqa: F401 - registration happens at import
+
+    return dict(_CODECS)
+
+
+def defines() -> dict[str, int]:
+    """The layout as build-time defines for OpenCL (``-D``) and GLSL (``#define``): every
+    header slot (H_*, F_*), every codec id (CODEC_*), TABLE_WIDTH, the header sizes and the
+    magic value."""
+    out = {
+        "TABLE_WIDTH": TABLE_WIDTH,
+        "HEADER_INTS": HEADER_INTS,
+        "HEADER_FLOATS": HEADER_FLOATS,
+        "PACKED_MAGIC": MAGIC,
+    }
+    out.update({f"H_{name.upper()}": i for i, name in enumerate(INT_HEADER)})
+    out.update({f"F_{name.upper()}": first for name, (first, _) in FLOAT_SLOT.items()})
+    by_id = sorted(codecs().values(), key=lambda c: c.codec_id)
+    out.update({f"CODEC_{c.name.upper()}": c.codec_id for c in by_id})
+    return out
+
+
+def _layout(stream: np.ndarray) -> np.ndarray:
     rows = max(1, -(-len(stream) // TABLE_WIDTH))
-    out = np.zeros(rows * TABLE_WIDTH, dtype=dtype)
+    out = np.zeros(rows * TABLE_WIDTH, dtype=np.float32)
     out[: len(stream)] = stream
     return out.reshape(rows, TABLE_WIDTH)
 
 
 def pack(btf: BTF) -> PackedTables:
-    codec = btf.meta.codec
-    if codec not in CODEC_IDS:
+    """A BTF's tables in the packed layout (a device wrapper packs the BTF it wraps)."""
+    while isinstance(btf, DelegatingBTF):
+        btf = btf.btf
+    codec = _CODECS.get(btf.meta.codec)
+    if codec is None:
         raise UnsupportedBTFError(
-            f"the GPU back ends (GLSL, OpenCL) do not evaluate {codec!r} BTFs; tabulate "
-            "procedural presets first (synth --tabulate) or use the numpy back end"
+            f"the GPU back ends (GLSL, OpenCL) do not evaluate {btf.meta.codec!r} BTFs; "
+            "tabulate procedural presets first (synth --tabulate) or use the numpy back end"
         )
-    ih = dict.fromkeys(INT_HEADER, 0)
-    assert len(INT_HEADER) <= HEADER_INTS
-    fh = dict.fromkeys(FLOAT_HEADER, 0.0)
-    ih["magic"], ih["codec"] = MAGIC, CODEC_IDS[codec]
-    fh["value_scale"] = btf.meta.value_scale
-    ints: list[np.ndarray] = []
-    floats: list[np.ndarray] = []
-    int_cursor, float_cursor = HEADER_INTS, HEADER_FLOATS
-
-    def add(table: np.ndarray, integer: bool) -> int:
-        nonlocal int_cursor, float_cursor
-        flat = np.ascontiguousarray(table).ravel()
-        if integer:
-            offset, int_cursor = int_cursor, int_cursor + flat.size
-            ints.append(flat.astype(np.int32))
-        else:
-            offset, float_cursor = float_cursor, float_cursor + flat.size
-            floats.append(flat.astype(np.float32))
-        return offset
-
-    if isinstance(btf, MLVQBTF):
-        p, t = btf.p, btf.t
-        height, width = t["pdf6_slices"].shape
-        ih.update(
-            n_beta=p.n_beta,
-            n_alpha=p.n_alpha,
-            n_theta=p.n_theta,
-            n_phi=p.n_phi,
-            width=width,
-            height=height,
-            rows_offset=p.rows_offset,
-            cols_offset=p.cols_offset,
-            hdr=int(p.hdr),
-            cos_beta=int(p.use_cos_beta),
-        )
-        for name in (
-            "index_ab",
-            "pdf2_colours",
-            "pdf2_slices",
-            "pdf2_indices",
-            "pdf3_slices",
-            "pdf4_slices",
-            "pdf6_slices",
-        ):
-            ih[name] = add(t[name], integer=True)
-        for name in ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale"):
-            ih["f_" + name] = add(t[name], integer=False)
-        ih["f_beta"] = add(p.beta_angles_deg(), integer=False)
-        fh["hdr_value"] = p.hdr_value
-    elif isinstance(btf, DenseBTF):
-        ih.update(width=btf.meta.width, height=btf.meta.height, n_lights=btf.light_grid.size)
-        ih["f_data"] = add(btf.data, integer=False)
-        for prefix, grid in (("view", btf.view_grid), ("light", btf.light_grid)):
-            ih[f"n_{prefix}_rings"] = len(grid.counts)
-            ih[f"f_{prefix}_theta"] = add(np.asarray(grid.theta_deg), integer=False)
-            ih[f"{prefix}_offsets"] = add(
-                np.concatenate([[0], np.cumsum(grid.counts)]), integer=True
-            )
-    elif isinstance(btf, LambertianBTF | GGXBTF):
-        fh["albedo_r"], fh["albedo_g"], fh["albedo_b"] = btf.albedo
-        if isinstance(btf, GGXBTF):
-            fh["alpha2"] = btf.alpha2
-    elif isinstance(btf, PrincipledBTF):
-        fh["albedo_r"], fh["albedo_g"], fh["albedo_b"] = btf.base_color
-        fh["alpha2"], fh["metallic"] = btf.alpha2, btf.metallic
-        fh["diffuse_roughness"], fh["specular_f0"] = btf.diffuse_roughness, btf.specular_f0
-    int_stream = np.concatenate(
-        [
-            np.array(
-                [ih[k] for k in INT_HEADER] + [0] * (HEADER_INTS - len(INT_HEADER)), dtype=np.int32
-            ),
-            *ints,
-        ]
-    )
-    float_stream = np.concatenate(
-        [
-            np.array(
-                [fh[k] for k in FLOAT_HEADER] + [0.0] * (HEADER_FLOATS - len(FLOAT_HEADER)),
-                dtype=np.float32,
-            ),
-            *floats,
-        ]
-    )
-    if int_stream.size and (
-        int_stream.max() >= MAX_EXACT_INT or int_stream.min() <= -MAX_EXACT_INT
-    ):
-        raise UnsupportedBTFError(
-            f"{btf.meta.name}: index tables too large for the GLSL back end (an index or offset "
-            "reaches 2^24); use the OpenCL or numpy back end"
-        )
-    return PackedTables(_layout(int_stream, np.float32), _layout(float_stream, np.float32))
+    writer = TableWriter()
+    writer.set(magic=MAGIC, codec=codec.codec_id, value_scale=btf.meta.value_scale)
+    codec.pack(btf, writer)
+    return writer.finish(btf.meta.name)

@@ -3,12 +3,19 @@
 Bodies live in shaders/*.glsl without declarations (Blender's create-info rule); the interface
 here declares every resource once. For Blender, the description becomes create-info calls; for
 moderngl it becomes ``#version 330`` declarations prepended to the same bodies.
+
+Every shader is built with the packed table layout's defines (core/packed.py ``defines()``:
+TABLE_WIDTH, header slots H_*/F_*, codec ids CODEC_*) beside its own: as create-info
+``define`` calls for Blender and as ``#define`` lines after ``#version 330 core`` for moderngl.
+shaders/btf_tables_lib.glsl writes none of those numbers itself.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from ..core import packed
 
 SHADERS_DIR = Path(__file__).resolve().parents[2] / "shaders"
 MAX_SAMPLERS = 16  # Metal's limit: what every back end of this add-on keeps to
@@ -61,6 +68,15 @@ class ShaderInterface:
         if size > MAX_PUSH_CONSTANT_BYTES:
             raise ValueError(f"{self.name}: {size} bytes of push constants > 128")
 
+    def build_defines(self) -> dict[str, str]:
+        """The packed layout's defines, then this shader's own (which may not redefine a
+        layout name: the layout has one definition), as GLSL macro text."""
+        layout = packed.defines()
+        clash = sorted(set(layout) & set(self.defines))
+        if clash:
+            raise ValueError(f"{self.name}: defines {clash} would override the packed layout")
+        return {k: str(v) for k, v in {**layout, **self.defines}.items()}
+
     def vertex_body(self) -> str:
         return (SHADERS_DIR / self.vertex_file).read_text()
 
@@ -71,7 +87,7 @@ class ShaderInterface:
     # --- moderngl / plain OpenGL ------------------------------------------------------------
     def glsl_330(self) -> tuple[str, str]:
         head = "#version 330 core\n" + "".join(
-            f"#define {k} {v}\n" for k, v in self.defines.items()
+            f"#define {k} {v}\n" for k, v in self.build_defines().items()
         )
         uniforms = "".join(f"uniform {_GLSL_TYPES[t]} {n};\n" for t, n in self.push_constants)
         uniforms += "".join(f"uniform {_SAMPLERS[t]} {n};\n" for _, t, n in self.samplers)
@@ -107,7 +123,7 @@ class ShaderInterface:
             for t, n in self.varyings:
                 stage.smooth(t, n)
             info.vertex_out(stage)
-        for k, v in self.defines.items():
+        for k, v in self.build_defines().items():
             info.define(k, v)
         info.vertex_source(self.vertex_body())
         info.fragment_source(self.fragment_body())

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.model import BTF, Queries
+from ..core.model import BTF, DelegatingBTF, Queries
 from ..core.packed import pack
 from .interface import QUERY_SHADER, ShaderCompileError
 
@@ -61,12 +61,11 @@ def upload_tables(ctx, btf: BTF):
     return textures
 
 
-class GLSLBTF(BTF):
-    """A core BTF evaluated by the GLSL shaders (moderngl, headless EGL)."""
+class GLSLEvaluator:
+    """Valid queries → (M, 3) float64 values by the query shader on a moderngl context; the
+    BTF's packed tables stay uploaded between calls."""
 
     def __init__(self, btf: BTF, ctx=None):
-        self.btf = btf
-        self.meta = btf.meta
         self.ctx = ctx or create_gl_context()
         self.int_tex, self.float_tex = upload_tables(self.ctx, btf)
         self.program = compile_program(self.ctx)
@@ -77,7 +76,7 @@ class GLSLBTF(BTF):
             if name in self.program:
                 self.program[name].value = slot
 
-    def _evaluate_valid(self, q: Queries) -> np.ndarray:
+    def __call__(self, q: Queries) -> np.ndarray:
         n = len(q.uv)
         a, b, (w, h) = query_textures(q)
         tex_a = self.ctx.texture((w, h), 4, a.tobytes(), dtype="f4")
@@ -100,8 +99,7 @@ class GLSLBTF(BTF):
                 obj.release()
         return out.reshape(h * w, 4)[:n, :3].astype(np.float64)
 
-    def tables(self):
-        return self.btf.tables()
 
-    def params(self):
-        return self.btf.params()
+def glsl_btf(btf: BTF, ctx=None) -> DelegatingBTF:
+    """``btf`` evaluated by the GLSL shaders (moderngl, headless EGL unless ``ctx`` is given)."""
+    return DelegatingBTF(btf, GLSLEvaluator(btf, ctx))

@@ -10,19 +10,12 @@
 #define ITAB(i) ((int)I[(i)])
 #define FTAB(i) (F[(i)])
 
-/* Header slots: keep in sync with btf_addon/core/packed.py INT_HEADER / FLOAT_HEADER. */
-enum {
-  H_CODEC = 1, H_N_BETA, H_N_ALPHA, H_N_THETA, H_N_PHI, H_WIDTH, H_HEIGHT, H_ROWS_OFFSET,
-  H_COLS_OFFSET, H_HDR, H_COS_BETA, H_INDEX_AB, H_PDF2_COLOURS, H_PDF2_SLICES, H_PDF2_INDICES,
-  H_PDF3_SLICES, H_PDF4_SLICES, H_PDF6_SLICES, H_F_PDF1, H_F_AB, H_F_PDF2_SCALE, H_F_PDF3_SCALE,
-  H_F_PDF4_SCALE, H_F_PDF6_SCALE, H_F_BETA, H_N_LIGHTS, H_F_DATA, H_N_VIEW_RINGS, H_F_VIEW_THETA,
-  H_VIEW_OFFSETS, H_N_LIGHT_RINGS, H_F_LIGHT_THETA, H_LIGHT_OFFSETS
-};
-enum {
-  F_VALUE_SCALE = 0, F_HDR_VALUE = 1, F_ALBEDO = 2, F_ALPHA2 = 5, F_METALLIC = 6,
-  F_DIFFUSE_ROUGHNESS = 7, F_SPECULAR_F0 = 8
-};
-enum { CODEC_MLVQ = 1, CODEC_LAMBERTIAN = 2, CODEC_GGX = 3, CODEC_DENSE = 4, CODEC_PRINCIPLED = 5 };
+/* Header slots (H_*: integer stream, F_*: float stream) and codec ids (CODEC_*) are not written
+ * here: btf_addon/core/packed.py defines the layout once and cl/programs.py passes it to every
+ * build as -D options (packed.defines()). */
+#if !defined(H_CODEC) || !defined(F_VALUE_SCALE) || !defined(CODEC_MLVQ)
+#error "packed-layout defines missing: build through btf_addon/cl/programs.py build_program"
+#endif
 
 typedef __global const float *Stream;
 
@@ -57,7 +50,7 @@ inline float mlvq_pdf1(Stream I, Stream F, int s, int i, float w, int n_beta)
 inline float2 mlvq_ab(Stream I, Stream F, int c, int i, float w, int n_beta)
 {
   int row = ITAB(H_INDEX_AB) + c * n_beta;
-  int ab = ITAB(H_F_AB);
+  int ab = ITAB(H_F_AB_COLORS);
   int a = ITAB(row + i), b = ITAB(row + i + 1);
   float2 ca = (float2)(FTAB(ab + 2 * a), FTAB(ab + 2 * a + 1));
   float2 cb = (float2)(FTAB(ab + 2 * b), FTAB(ab + 2 * b + 1));

@@ -51,10 +51,10 @@ def _btfs():
 
 @pytest.mark.parametrize("name", list(_btfs()))
 def test_device_matches_numpy_reference(device_context, rng, name):
-    from btf_addon.cl.evaluate import DeviceBTF
+    from btf_addon.cl.evaluate import device_btf
 
     btf = _btfs()[name]()
-    device = DeviceBTF(btf, device_context)
+    device = device_btf(btf, device_context)
     q = random_queries(rng, 20_000)
     q[:50, 2] = 90.0  # grazing light
     q[50:100, 4] = 0.0  # view at the pole
@@ -67,10 +67,10 @@ def test_device_matches_numpy_reference(device_context, rng, name):
 
 
 def test_procedural_presets_are_refused_clearly(device_context):
-    from btf_addon.cl.evaluate import DeviceBTF
+    from btf_addon.cl.evaluate import device_btf
 
     with pytest.raises(UnsupportedBTFError, match="tabulate procedural presets first"):
-        DeviceBTF(woven(texels=2, fine_per_texel=4), device_context)
+        device_btf(woven(texels=2, fine_per_texel=4), device_context)
 
 
 def test_programs_are_cached_in_memory_and_on_disk(device_context, tmp_path, monkeypatch):

@@ -253,6 +253,7 @@ def test_progressive_passes_equal_one_pass_and_cancel_is_prompt(cl_context, rng,
     import time
 
     from btf_addon.cl import renderer as cl_renderer
+    from btf_addon.render import launch
 
     env = forest_like(rng)
     ground = plane(6.0, material=0)
@@ -260,7 +261,7 @@ def test_progressive_passes_equal_one_pass_and_cancel_is_prompt(cl_context, rng,
     scene = sphere_scene(GGXBTF(0.8, 0.5), env, [uv_sphere(1.0, 32, 16), ground])
     renderer = cl_renderer.CLRenderer(scene, 40, 30, cl_context)
     one_pass = renderer.render_sampled(32, seed=9, max_bounces=2)
-    monkeypatch.setattr(cl_renderer, "PASS_SECONDS", 1e-9)  # every pass one sample
+    monkeypatch.setattr(launch, "PASS_SECONDS", 1e-9)  # every pass one sample
     previews = []
     split = renderer.render_sampled(32, seed=9, max_bounces=2, preview=previews.append)
     np.testing.assert_allclose(split, one_pass, rtol=1e-4, atol=1e-6)

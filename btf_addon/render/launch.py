@@ -1,0 +1,116 @@
+"""Launch planning for the final render: how many rows and samples each kernel launch covers.
+
+A pixel's cost varies by orders of magnitude (lights, samples, bounces, sky vs geometry), so
+launches are sized by measured cost: the first launch is small and measures the seconds per
+pixel-sample; later ones aim at LAUNCH_SECONDS each, so progress is reported and a cancel
+answered between launches at any sample count. Samples go in passes over the whole image of
+about PASS_SECONDS each (the Sampled mode's preview cadence); device memory holds one band of at
+most BAND_PIXELS pixels.
+
+Pure planning, no device and no clock: the caller runs each ``Launch`` the plan yields, times
+it and reports the seconds with ``record`` before asking for the next one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+BAND_PIXELS = 1 << 17  # most pixels per kernel launch: bounds device memory
+FIRST_LAUNCH_PIXELS = 1 << 14  # the first launch measures the cost per pixel
+LAUNCH_SECONDS = 0.1  # target per launch: cancel answers within a few times this
+PASS_SECONDS = 2.0  # target per progressive pass of the Sampled mode (preview cadence)
+
+
+@dataclass(frozen=True)
+class Launch:
+    """Rows [row0, row0 + rows) for samples [first_sample, first_sample + samples).
+
+    done: the fraction of all work finished once this launch is; ends_pass: the last launch of
+    a pass over the image; last: the last launch of the whole render."""
+
+    row0: int
+    rows: int
+    first_sample: int
+    samples: int
+    done: float
+    ends_pass: bool
+    last: bool
+
+
+class LaunchPlan:
+    """Launches covering ``height`` rows of ``width`` pixels × ``samples`` samples exactly once.
+
+    The limits default to this module's constants as they are when the plan is made (tests and
+    benchmarks may change them)."""
+
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        samples: int = 1,
+        *,
+        band_pixels: int | None = None,
+        first_launch_pixels: int | None = None,
+        launch_seconds: float | None = None,
+        pass_seconds: float | None = None,
+    ):
+        self.width, self.height, self.samples = width, height, samples
+        band_pixels = BAND_PIXELS if band_pixels is None else band_pixels
+        first_pixels = FIRST_LAUNCH_PIXELS if first_launch_pixels is None else first_launch_pixels
+        self.launch_seconds = LAUNCH_SECONDS if launch_seconds is None else launch_seconds
+        self.pass_seconds = PASS_SECONDS if pass_seconds is None else pass_seconds
+        #: Most rows in one launch: the device buffers hold this many rows of passes.
+        self.max_rows = max(1, min(height, band_pixels // width))
+        self.cost: float | None = None  # seconds per pixel-sample, measured (decaying maximum)
+        self._last_work = 0  # rows × samples of the last launch
+        self._rows = max(1, min(self.max_rows, first_pixels // width))
+
+    def record(self, launch: Launch, seconds: float) -> None:
+        """The measured duration of ``launch``: sizes the launches after it."""
+        w = self.width
+        measured = max(seconds, 1e-6) / (launch.rows * w * launch.samples)
+        # A decaying maximum: a slow launch counts at once, a fast one lowers the estimate
+        # at most by half, so one cheap band cannot make the next launch far too long.
+        self.cost = measured if self.cost is None else max(measured, 0.5 * self.cost)
+        self._last_work = launch.rows * launch.samples
+
+    def _samples_per_launch(self, first: int) -> int:
+        if self.cost is None:
+            return 1
+        w, h = self.width, self.height
+        per_pass = self.pass_seconds / (self.cost * w * h)
+        per_row = self.launch_seconds / (self.cost * w)
+        return int(np.clip(min(per_pass, per_row), 1, self.samples - first))
+
+    def _rows_for(self, count: int) -> int:
+        if self.cost is not None:
+            # Costs differ across the image (sky rows are cheap): grow a launch at most 2× over
+            # the last one, so a cheap region cannot talk it into a huge one.
+            limit = min(self.max_rows, max(1, 2 * self._last_work // count))
+            rows = self.launch_seconds / (self.cost * self.width * count)
+            self._rows = int(np.clip(rows, 1, limit))
+        return self._rows
+
+    def __iter__(self) -> Iterator[Launch]:
+        h, samples = self.height, self.samples
+        first = 0
+        while first < samples:
+            count = self._samples_per_launch(first)
+            row0 = 0
+            while row0 < h:
+                band = min(self._rows_for(count), h - row0)
+                end = row0 + band
+                yield Launch(
+                    row0=row0,
+                    rows=band,
+                    first_sample=first,
+                    samples=count,
+                    done=(first * h + end * count) / (samples * h),
+                    ends_pass=end == h,
+                    last=end == h and first + count >= samples,
+                )
+                row0 = end
+            first += count
