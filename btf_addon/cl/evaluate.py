@@ -67,7 +67,3 @@ class KernelEvaluator:
 def device_btf(btf: BTF, cl_context: CLContext) -> DelegatingBTF:
     """``btf`` evaluated on the context's device (same ``meta``, ``tables()``, ``params()``)."""
     return DelegatingBTF(btf, KernelEvaluator(btf, cl_context))
-
-
-#: The former class name, kept while cli/btf_commands.py still calls ``DeviceBTF(btf, ctx)``.
-DeviceBTF = device_btf

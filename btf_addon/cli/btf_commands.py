@@ -139,12 +139,17 @@ def cmd_eval(args) -> int:
     queries = load_queries(args.queries)
     if args.backend == "opencl":
         from ..cl.context import OpenCLUnavailableError, create_context
-        from ..cl.evaluate import DeviceBTF
+        from ..cl.evaluate import device_btf
+        from ..cl.programs import OpenCLCompileError
 
         try:
-            btf = DeviceBTF(btf, create_context(args.device))
-        except (OpenCLUnavailableError, RuntimeError) as exc:
+            btf = device_btf(btf, create_context(args.device))
+        except OpenCLUnavailableError as exc:
             raise BTFError(f"OpenCL back end unavailable: {exc}") from None
+        except OpenCLCompileError as exc:
+            raise BTFError(
+                f"OpenCL kernel failed to compile (a bug, please report): {exc}"
+            ) from None
     values = btf.evaluate_angles(queries)
     if args.units == "raw":
         values = (values.astype(np.float64) / btf.meta.value_scale).astype(np.float32)
