@@ -24,7 +24,8 @@ class BTF_OT_check_system(Operator):
             try:
                 facts = probe.check()
             except Exception as exc:  # report, never fail: this operator is the diagnosis
-                self.report({"WARNING"}, f"{probe.name}: missing ({exc}). {probe.hint}")
+                error = f"{type(exc).__name__}: {exc}"  # as the doctor reports it
+                self.report({"WARNING"}, f"{probe.name}: missing ({error}). {probe.hint}")
             else:
                 self.report({"INFO"}, f"{probe.name}: ok {json.dumps(facts)[:120]}")
         return {"FINISHED"}
