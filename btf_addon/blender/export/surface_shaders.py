@@ -32,7 +32,7 @@ class AnalyticKey:
     """One analytic BTF's class and parameters (rounded to 6 decimals, so that float noise in
     Blender's sockets does not make a new BTF)."""
 
-    codec: str  # the BTF class's name
+    class_name: str  # the BTF class, e.g. "PrincipledBTF"
     params: tuple[tuple[str, tuple[float, ...]], ...]  # sorted by parameter name
 
     @classmethod
