@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import threading
 from pathlib import Path
+from typing import NamedTuple
 
 import bpy
 import numpy as np
@@ -23,6 +24,7 @@ from ..core.codecs import load_btf
 from ..core.errors import BTFError
 from ..core.model import BTF
 from ..core.packed import pack
+from .export.meshes import GEOMETRY_OBJECT_TYPES
 
 
 class LoadJob:
@@ -68,9 +70,14 @@ def display_colour(btf: BTF) -> tuple[float, float, float, float]:
     return (*map(float, rgb), 1.0)
 
 
-def create_material(name: str, source: str, btf: BTF, objects) -> tuple[bpy.types.Material, int]:
-    """The new material and how many of ``objects`` it was assigned to (into the active slot,
-    or a new slot where an object has none)."""
+class CreatedMaterial(NamedTuple):
+    material: bpy.types.Material
+    assigned: int  # how many of the objects it was assigned to
+
+
+def create_material(name: str, source: str, btf: BTF, objects) -> CreatedMaterial:
+    """A new BTF material, assigned to those of ``objects`` that can hold one (into the active
+    slot, or a new slot where an object has none)."""
     material = bpy.data.materials.new(name)
     material.btf.enabled = True
     material.btf.source = source
@@ -81,14 +88,14 @@ def create_material(name: str, source: str, btf: BTF, objects) -> tuple[bpy.type
             principled.inputs["Base Color"].default_value = material.diffuse_color
     assigned = 0
     for obj in objects:
-        if obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+        if obj.type not in GEOMETRY_OBJECT_TYPES:
             continue
         if len(obj.material_slots) == 0:
             obj.data.materials.append(material)
         else:
             obj.material_slots[obj.active_material_index].material = material
         assigned += 1
-    return material, assigned
+    return CreatedMaterial(material, assigned)
 
 
 class BTF_OT_import_material(Operator, ImportHelper):

@@ -18,17 +18,16 @@ class BTF_OT_check_system(Operator):
     def execute(self, context):
         from ..diagnostics.probes import PROBES
 
-        lines = []
-        for name, (probe, hint) in PROBES.items():
-            if name == "blender":
+        for probe in PROBES.values():
+            if probe.name == "blender":
                 continue  # we are inside Blender
             try:
-                result = probe()
-                lines.append(f"{name}: ok {json.dumps(result)[:120]}")
+                facts = probe.check()
             except Exception as exc:  # report, never fail: this operator is the diagnosis
-                lines.append(f"{name}: missing ({exc}). {hint}")
-        for line in lines:
-            self.report({"INFO"} if ": ok" in line else {"WARNING"}, line)
+                error = f"{type(exc).__name__}: {exc}"  # as the doctor reports it
+                self.report({"WARNING"}, f"{probe.name}: missing ({error}). {probe.hint}")
+            else:
+                self.report({"INFO"}, f"{probe.name}: ok {json.dumps(facts)[:120]}")
         return {"FINISHED"}
 
 

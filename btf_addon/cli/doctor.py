@@ -1,4 +1,11 @@
-"""``doctor``: a JSON report of what this machine offers the add-on. Never crashes."""
+"""``doctor``: a JSON report of what this machine offers the add-on. Never crashes.
+
+The report: ``btf_materials`` (version), ``python``, ``platform``, then one object per probe
+(``diagnostics.probes.PROBES``, in that order) — ``{"ok": true, ...facts}`` or ``{"ok": false,
+"error": ..., "how_to_fix": ...}`` — and ``summary`` (probe name → ok). The exit code is 0
+whenever the report was printed: a missing part is a fact to report, not a failure of the
+doctor.
+"""
 
 from __future__ import annotations
 
@@ -10,12 +17,13 @@ import sys
 from pathlib import Path
 
 from .. import __version__
-from ..diagnostics.probes import PROBES
+from ..diagnostics.probes import PROBES, RESULT_MARKER
 
 PROBE_TIMEOUT_S = 180
 
 
 def _probe_in_subprocess(name: str) -> dict:
+    """Run one probe in a fresh interpreter (a crashing driver takes only that process down)."""
     package_parent = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_parent, env.get("PYTHONPATH")]))
@@ -34,7 +42,12 @@ def _probe_in_subprocess(name: str) -> dict:
         return {"ok": False, "error": f"probe did not finish within {PROBE_TIMEOUT_S} s"}
     except OSError as exc:
         return {"ok": False, "error": f"could not start a probe process ({exc})"}
-    marker = proc.stdout.rfind("@@PROBE@@")
+    return read_probe_output(proc)
+
+
+def read_probe_output(proc: subprocess.CompletedProcess) -> dict:
+    """A finished probe process → its result dict, or a failure saying why there is none."""
+    marker = proc.stdout.rfind(RESULT_MARKER)
     if marker < 0:
         reason = (
             f"killed by signal {-proc.returncode}"
@@ -43,7 +56,14 @@ def _probe_in_subprocess(name: str) -> dict:
         )
         tail = (proc.stderr.strip().splitlines() or [""])[-1]
         return {"ok": False, "error": f"probe process failed ({reason}) {tail}".strip()}
-    return json.loads(proc.stdout[marker + len("@@PROBE@@") :].splitlines()[0])
+    line = (proc.stdout[marker + len(RESULT_MARKER) :].splitlines() or [""])[0]
+    try:
+        result = json.loads(line)
+    except ValueError:
+        return {"ok": False, "error": f"unreadable probe result {line[:200]!r}"}
+    if not isinstance(result, dict) or not isinstance(result.get("ok"), bool):
+        return {"ok": False, "error": f"malformed probe result {line[:200]!r}"}
+    return result
 
 
 def report() -> dict:
@@ -52,12 +72,12 @@ def report() -> dict:
         "python": platform.python_version(),
         "platform": f"{platform.system()} {platform.machine()}",
     }
-    for name, (_func, hint) in PROBES.items():
-        result = _probe_in_subprocess(name)
-        if not result.get("ok"):
-            result["how_to_fix"] = hint
-        out[name] = result
-    out["summary"] = {name: bool(out[name].get("ok")) for name in PROBES}
+    for probe in PROBES.values():
+        result = _probe_in_subprocess(probe.name)
+        if not result["ok"]:
+            result["how_to_fix"] = probe.hint
+        out[probe.name] = result
+    out["summary"] = {name: out[name]["ok"] for name in PROBES}
     return out
 
 

@@ -1,14 +1,17 @@
 """One function per optional part of the system; each returns a JSON-able dict or raises.
 
-The doctor runs each probe in its own subprocess, so a driver that crashes the process
-(it happens with broken GPU stacks) is reported instead of taking the doctor down.
+The doctor runs each probe in its own subprocess (``run_probe``), so a driver that crashes the
+process (it happens with broken GPU stacks) is reported instead of taking the doctor down.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
 import platform
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 
 
 def probe_blender() -> dict:
@@ -77,46 +80,64 @@ def _dist_version(name: str) -> str | None:
         return None
 
 
-PROBES = {
-    "blender": (
-        probe_blender,
-        "Install Blender as a Python module: pip install bpy==5.0.1 (Python 3.11), "
-        "or run inside Blender 4.2+.",
-    ),
-    "opencl": (
-        probe_opencl,
-        "Install a GPU vendor's OpenCL driver, or the CPU driver from PyPI: "
-        "pip install pocl-binary-distribution; final renders need OpenCL.",
-    ),
-    "opengl": (
-        probe_opengl,
-        "Install Mesa's EGL and DRI drivers (Debian: apt-get install libegl1 libegl-mesa0 "
-        "libgl1-mesa-dri) for the headless GLSL renderer.",
-    ),
-    "hidraw": (
-        probe_hidraw,
-        "Install hidapi (pip install hidapi) on Linux for Wiimote support; the add-on works "
-        "without a controller.",
-    ),
-    "openxr": (
-        probe_openxr,
-        "Optional: install an OpenXR runtime and pip install pyopenxr to drive headsets "
-        "outside Blender's own VR session.",
-    ),
-    "openexr": (
-        probe_openexr,
-        "Install OpenEXR (pip install openexr) to read and write EXR files.",
-    ),
+@dataclass(frozen=True)
+class Probe:
+    name: str
+    check: Callable[[], dict]  # → JSON-able facts about what was found; raises when missing
+    hint: str  # how to install what is missing, shown with a failed check
+
+
+PROBES: dict[str, Probe] = {
+    probe.name: probe
+    for probe in (
+        Probe(
+            "blender",
+            probe_blender,
+            "Install Blender as a Python module: pip install bpy==5.0.1 (Python 3.11), "
+            "or run inside Blender 4.2+.",
+        ),
+        Probe(
+            "opencl",
+            probe_opencl,
+            "Install a GPU vendor's OpenCL driver, or the CPU driver from PyPI: "
+            "pip install pocl-binary-distribution; final renders need OpenCL.",
+        ),
+        Probe(
+            "opengl",
+            probe_opengl,
+            "Install Mesa's EGL and DRI drivers (Debian: apt-get install libegl1 libegl-mesa0 "
+            "libgl1-mesa-dri) for the headless GLSL renderer.",
+        ),
+        Probe(
+            "hidraw",
+            probe_hidraw,
+            "Install hidapi (pip install hidapi) on Linux for Wiimote support; the add-on works "
+            "without a controller.",
+        ),
+        Probe(
+            "openxr",
+            probe_openxr,
+            "Optional: install an OpenXR runtime and pip install pyopenxr to drive headsets "
+            "outside Blender's own VR session.",
+        ),
+        Probe(
+            "openexr",
+            probe_openexr,
+            "Install OpenEXR (pip install openexr) to read and write EXR files.",
+        ),
+    )
 }
+
+#: Precedes the one JSON line a probe process prints, so that anything a driver prints on
+#: stdout before it cannot be mistaken for the result.
+RESULT_MARKER = "@@PROBE@@"
 
 
 def run_probe(name: str) -> None:
-    """Subprocess entry: print the probe's JSON result (or its error) on stdout."""
-    import json
-
-    func = PROBES[name][0]
+    """Subprocess entry: print the probe's JSON result after ``RESULT_MARKER`` on stdout:
+    ``{"ok": true, **facts}`` or ``{"ok": false, "error": "<exception type>: <message>"}``."""
     try:
-        result = {"ok": True, **func()}
+        line = json.dumps({"ok": True, **PROBES[name].check()})
     except Exception as exc:  # report any failure as data: the doctor must never crash
-        result = {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
-    sys.stdout.write("\n@@PROBE@@" + json.dumps(result) + "\n")
+        line = json.dumps({"ok": False, "error": f"{type(exc).__name__}: {exc}"})
+    sys.stdout.write("\n" + RESULT_MARKER + line + "\n")

@@ -1,8 +1,12 @@
-"""What the exporter sees of modifiers and instances: the evaluated depsgraph, as F12 renders."""
+"""What the exporter sees of modifiers and instances (the evaluated depsgraph, as F12 renders),
+what its cache keeps, and the camera's sensor fit."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 from blender_helpers import extension_submodule
 
 
@@ -71,7 +75,60 @@ def test_collection_and_geometry_node_instances(bpy_module, fresh_scene):
     cubes = [m for m in exported.meshes if m.name == "Plane" and m.triangle_count == 12]
     corners = sorted(tuple(m.world_from_object[:2, 3]) for m in cubes)
     assert corners == [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)]
-    # A second export reuses every cached mesh (one export per geometry, not per instance).
-    before = {key: value[0] for key, value in cache.meshes.items()}
+    # One cache entry per geometry, not per instance: the kit cube (two empties), the plane's
+    # own mesh, and the generated cube (four corners).
+    assert sorted(key.object_name for key in cache.meshes) == ["Cube", "Plane", "Plane"]
+    # A second export reuses every cached mesh.
+    before = {key: entry.meshes for key, entry in cache.meshes.items()}
     export.export_scene(bpy.context.evaluated_depsgraph_get(), 16, 16, cache)
-    assert all(cache.meshes[key][0] is meshes for key, meshes in before.items())
+    assert cache.meshes.keys() == before.keys()
+    assert all(cache.meshes[key].meshes is meshes for key, meshes in before.items())
+
+
+def test_cache_forgets_deleted_objects_and_edited_materials(bpy_module, fresh_scene):
+    bpy = bpy_module
+    _camera(bpy, fresh_scene)
+    fresh_scene.world = None
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.object
+    cube.data.materials.append(bpy.data.materials.new("Red"))
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(3.0, 0.0, 0.0))
+    sphere = bpy.context.object
+    export = extension_submodule("btf_addon.blender.export")
+    cache = export.ExportCache()
+    export.export_scene(bpy.context.evaluated_depsgraph_get(), 16, 16, cache)
+    entries = {key.object_name: entry for key, entry in cache.meshes.items()}
+    assert entries["Cube"].material_names == ("Red",) and entries["Sphere"].material_names == ("",)
+    cache.invalidate(materials={"Red"})
+    assert [key.object_name for key in cache.meshes] == ["Sphere"]
+    assert cache.environment is not None and cache.environment.world_name == ""
+    bpy.data.objects.remove(sphere)
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), 16, 16, cache)
+    assert [key.object_name for key in cache.meshes] == ["Cube"]  # re-exported; Sphere dropped
+    assert [m.name for m in exported.materials] == ["Red"]
+    assert "the scene has no World: black" in exported.messages
+
+
+@pytest.mark.parametrize(
+    ("sensor_fit", "width", "height", "sensor_mm"),
+    [
+        # Landscape: the 36 mm width spans the image width, the height gets 36 / 2 = 18 mm.
+        ("AUTO", 32, 16, 18.0),
+        ("HORIZONTAL", 32, 16, 18.0),
+        ("VERTICAL", 32, 16, 24.0),  # sensor_height spans the height
+        # Portrait: AUTO fits the larger side (now the height) to sensor_width.
+        ("AUTO", 16, 32, 36.0),
+        ("HORIZONTAL", 16, 32, 72.0),
+        ("VERTICAL", 16, 32, 24.0),
+    ],
+)
+def test_camera_sensor_fit(bpy_module, fresh_scene, sensor_fit, width, height, sensor_mm):
+    """The vertical field of view is the sensor height the fit gives (sensor 36 × 24 mm)."""
+    bpy = bpy_module
+    _camera(bpy, fresh_scene)
+    data = fresh_scene.camera.data
+    data.sensor_fit, data.sensor_width, data.sensor_height, data.lens = sensor_fit, 36, 24, 50
+    camera = extension_submodule("btf_addon.blender.export.camera")
+    exported = camera.export_camera(fresh_scene, width, height)
+    # Exact up to float rounding of the same formula: 1e-12 rad.
+    assert exported.fov_y_rad == pytest.approx(2 * math.atan(sensor_mm / 2 / 50), abs=1e-12)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 import zipfile
 
-from blender_helpers import EXTENSION_MODULE, init_gpu_module
+from blender_helpers import EXTENSION_MODULE, extension_submodule, init_gpu_module
 
 
 def test_zip_holds_the_extension_and_nothing_else(extension_zip):
@@ -79,3 +79,23 @@ def test_gpu_module_can_be_initialised_in_background(bpy_module, fresh_scene):
         assert offscreen.width == 8
     finally:
         offscreen.free()
+
+
+def test_check_system_reports_every_probe(bpy_module, installed, capfd, monkeypatch):
+    """Check System reports each probe but Blender's (it runs inside Blender) once: INFO when
+    found, WARNING with the hint when missing. OpenEXR is made missing for real: a None entry
+    in sys.modules makes ``import OpenEXR`` raise ImportError."""
+    probes = extension_submodule("btf_addon.diagnostics.probes").PROBES
+    monkeypatch.setitem(sys.modules, "OpenEXR", None)
+    capfd.readouterr()
+    assert bpy_module.ops.btf.check_system() == {"FINISHED"}
+    lines = capfd.readouterr().out.splitlines()  # background Blender prints reports
+    for name, probe in probes.items():
+        found = [line for line in lines if line.split(": ")[1:2] == [name]]
+        assert len(found) == (0 if name == "blender" else 1), (name, lines)
+        if found:
+            ok = found[0].startswith(f"Info: {name}: ok ")
+            missing = found[0].startswith(f"Warning: {name}: missing (")
+            assert ok or (missing and found[0].endswith(probe.hint)), found[0]
+    openexr = next(line for line in lines if line.startswith("Warning: openexr: missing ("))
+    assert "(ModuleNotFoundError: import of OpenEXR halted" in openexr, openexr

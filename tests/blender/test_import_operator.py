@@ -45,8 +45,9 @@ def test_import_creates_and_assigns_a_btf_material(bpy_module, fresh_scene, tmp_
     assert 0.1 < colour.min() and colour.max() - colour.min() < 0.2
     export = extension_submodule("btf_addon.blender.export")
     messages: list[str] = []
-    exported, _ = export.export_material(material, messages)
-    assert exported.btf.meta.codec == "mlvq" and not messages
+    exported = export.export_material(material, messages)
+    assert exported.material.btf.meta.codec == "mlvq" and not messages
+    assert exported.material.name == "alu" and exported.uv_map == ""  # the active render map
 
 
 def test_a_corrupt_file_changes_nothing(bpy_module, fresh_scene, tmp_path):

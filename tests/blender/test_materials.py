@@ -1,4 +1,5 @@
-"""Non-BTF materials: which analytic BTF each surface shader becomes (blender/materials.py)."""
+"""Non-BTF materials: which analytic BTF each surface shader becomes
+(blender/export/surface_shaders.py)."""
 
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ def _material(bpy, node_type: str | None, **inputs):
 
 
 def _export(material):
-    materials = extension_submodule("btf_addon.blender.materials")
+    materials = extension_submodule("btf_addon.blender.export.surface_shaders")
     messages: list[str] = []
     return materials.analytic_btf(material, messages), messages
 
@@ -57,3 +58,15 @@ def test_textured_inputs_are_reported(bpy_module, fresh_scene):
     tree.links.new(texture.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
     _, messages = _export(material)
     assert any("Base Color is driven by nodes" in m for m in messages)
+
+
+def test_equal_settings_share_one_btf(bpy_module, fresh_scene):
+    """The GPU back ends upload one set of tables per BTF object: materials whose shaders have
+    the same settings (to 6 decimals) get the same object, different settings another."""
+    bpy = bpy_module
+    colour = (0.2, 0.4, 0.6, 1.0)
+    first, _ = _export(_material(bpy, "ShaderNodeBsdfDiffuse", Color=colour))
+    same, _ = _export(_material(bpy, "ShaderNodeBsdfDiffuse", Color=colour))
+    other, _ = _export(_material(bpy, "ShaderNodeBsdfDiffuse", Color=(0.2, 0.4, 0.7, 1.0)))
+    assert same is first and other is not first
+    np.testing.assert_allclose(other.albedo, [0.2, 0.4, 0.7], rtol=1e-6)

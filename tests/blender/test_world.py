@@ -1,4 +1,5 @@
-"""The World's environment as Blender sets it up, read through the add-on's Blender layer."""
+"""The World's environment as Blender sets it up, read through the add-on's Blender layer
+(blender/export/world.py)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,10 @@ from helpers import random_hemisphere, studiolights_dir
 
 from btf_addon.core.envmap import Environment
 from btf_addon.core.imageio import read_exr
+
+
+def environment_from_world(world):
+    return extension_submodule("btf_addon.blender.export.world").environment_from_world(world)
 
 
 def make_world(bpy, exr_path, rotation_z_deg=0.0, strength=1.0, interpolation="Linear"):
@@ -34,7 +39,7 @@ def make_world(bpy, exr_path, rotation_z_deg=0.0, strength=1.0, interpolation="L
 def test_world_extraction_equals_reading_the_exr_and_rotating(bpy_module, fresh_scene, rng):
     exr = studiolights_dir() / "forest.exr"
     world = make_world(bpy_module, exr, rotation_z_deg=30.0, strength=2.0)
-    env, messages = extension_submodule("btf_addon.blender.world").environment_from_world(world)
+    env, messages = environment_from_world(world)
     assert messages == []
     direct = Environment(read_exr(exr), strength=2.0, rotation_z_rad=math.radians(30.0))
     dirs = random_hemisphere(rng, 5000) * rng.choice([-1, 1], size=(5000, 1))
@@ -45,7 +50,7 @@ def test_world_extraction_equals_reading_the_exr_and_rotating(bpy_module, fresh_
 def test_plain_world_colour_is_a_constant_environment(bpy_module, fresh_scene):
     world = bpy_module.data.worlds.new("Plain")  # Blender 5: worlds always have nodes
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1.0)
-    env, messages = extension_submodule("btf_addon.blender.world").environment_from_world(world)
+    env, messages = environment_from_world(world)
     assert messages == []
     np.testing.assert_allclose(
         env.lookup(np.array([[0, 0, 1.0], [1, 0, 0]])), [[0.2, 0.3, 0.4]] * 2, rtol=1e-6
@@ -57,7 +62,7 @@ def test_unsupported_world_gives_a_message_and_a_constant(bpy_module, fresh_scen
     nodes = world.node_tree.nodes
     sky = nodes.new("ShaderNodeTexSky")
     world.node_tree.links.new(sky.outputs["Color"], nodes["Background"].inputs["Color"])
-    env, messages = extension_submodule("btf_addon.blender.world").environment_from_world(world)
+    env, messages = environment_from_world(world)
     assert len(messages) == 1 and "Sky Texture" in messages[0]
     assert env.width == 1 and env.height == 1
 

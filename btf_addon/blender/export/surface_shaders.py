@@ -11,10 +11,12 @@ own value, with a message: only BTF materials carry spatial variation here.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from ..core.model import BTF
+from ...core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from ...core.model import BTF
 
 #: Principled BSDF inputs → PrincipledBTF parameters (inputs Blender versions lack are skipped).
 PRINCIPLED_INPUTS = {
@@ -24,15 +26,27 @@ PRINCIPLED_INPUTS = {
     "Diffuse Roughness": "diffuse_roughness",  # Blender 4.3+
 }
 
+
+@dataclass(frozen=True)
+class AnalyticKey:
+    """One analytic BTF's class and parameters (rounded to 6 decimals, so that float noise in
+    Blender's sockets does not make a new BTF)."""
+
+    class_name: str  # the BTF class, e.g. "PrincipledBTF"
+    params: tuple[tuple[str, tuple[float, ...]], ...]  # sorted by parameter name
+
+    @classmethod
+    def of(cls, btf_class: type, params: dict) -> AnalyticKey:
+        rounded = ((k, tuple(np.round(np.atleast_1d(v), 6))) for k, v in params.items())
+        return cls(btf_class.__name__, tuple(sorted(rounded)))
+
+
 # One BTF object per distinct setting: the GPU back ends upload its tables once.
-_cache: dict[tuple, BTF] = {}
+_cache: dict[AnalyticKey, BTF] = {}
 
 
 def _cached(cls, **params) -> BTF:
-    key = (
-        cls.__name__,
-        *sorted((k, tuple(np.round(np.atleast_1d(v), 6))) for k, v in params.items()),
-    )
+    key = AnalyticKey.of(cls, params)
     if key not in _cache:
         _cache[key] = cls(**params)
     return _cache[key]
@@ -79,6 +93,8 @@ def _principled(material, node, messages: list[str]) -> dict:
 
 
 def analytic_btf(material, messages: list[str]) -> BTF:
+    """The analytic BTF that renders ``material`` (a ``bpy.types.Material``; None: Blender's
+    default grey). Simplifications are appended to ``messages``."""
     if material is None:
         return _cached(PrincipledBTF, base_color=(0.8, 0.8, 0.8), roughness=0.5)
     node = surface_node(material)

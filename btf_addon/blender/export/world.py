@@ -9,11 +9,15 @@ says what was not understood and a constant fallback, never an exception.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import bpy
 import numpy as np
 
-from ..core.colour import srgb_decode
-from ..core.envmap import Environment
+from ...core.colour import srgb_decode
+from ...core.envmap import Environment
+
+BLACK = (0.0, 0.0, 0.0)
 
 
 def _linked_node(socket):
@@ -58,21 +62,26 @@ def _mapping_rotation_z(mapping, messages: list[str]) -> float:
     return z
 
 
-def environment_from_world(world) -> tuple[Environment, list[str]]:
-    """→ (environment, messages). Messages explain any simplification or fallback."""
+class WorldEnvironment(NamedTuple):
+    environment: Environment
+    messages: list[str]  # every simplification or fallback, for the UI
+
+
+def environment_from_world(world) -> WorldEnvironment:
+    """``world``: a ``bpy.types.World`` or None. Never raises for an unsupported setup."""
     messages: list[str] = []
     if world is None:
-        return Environment.constant((0.0, 0.0, 0.0)), ["the scene has no World: black"]
+        return WorldEnvironment(Environment.constant(BLACK), ["the scene has no World: black"])
     # Blender < 5 can switch a World's nodes off (then World.color lights the scene); Blender 5
     # always uses the nodes and deprecates the switch, so it is only read on older versions.
     nodes_off = bpy.app.version < (5, 0, 0) and not world.use_nodes
     if nodes_off or world.node_tree is None:
-        return Environment.constant(tuple(world.color)), messages
+        return WorldEnvironment(Environment.constant(tuple(world.color)), messages)
     output = _active_output(world.node_tree)
     background = _linked_node(output.inputs["Surface"]) if output else None
     if background is None or background.bl_idname != "ShaderNodeBackground":
         messages.append("World output is not fed by a Background node: using a black world")
-        return Environment.constant((0.0, 0.0, 0.0)), messages
+        return WorldEnvironment(Environment.constant(BLACK), messages)
     strength_socket = background.inputs["Strength"]
     strength = float(strength_socket.default_value)
     if strength_socket.is_linked:
@@ -82,16 +91,16 @@ def environment_from_world(world) -> tuple[Environment, list[str]]:
     fallback = Environment.constant(tuple(color_socket.default_value)[:3], strength)
     texture = _linked_node(color_socket)
     if texture is None:
-        return fallback, messages
+        return WorldEnvironment(fallback, messages)
     if texture.bl_idname != "ShaderNodeTexEnvironment" or texture.image is None:
         messages.append(
             f"World colour comes from {texture.bl_label!r}, not an Environment "
             "Texture with an image: using the Background colour"
         )
-        return fallback, messages
+        return WorldEnvironment(fallback, messages)
     if texture.projection != "EQUIRECTANGULAR":
         messages.append("mirror-ball projection is not supported: using the Background colour")
-        return fallback, messages
+        return WorldEnvironment(fallback, messages)
     rotation = 0.0
     mapping = _linked_node(texture.inputs["Vector"])
     if mapping is not None:
@@ -103,8 +112,8 @@ def environment_from_world(world) -> tuple[Environment, list[str]]:
         pixels = image_pixels(texture.image)
     except (ValueError, RuntimeError) as exc:
         messages.append(f"environment image unusable ({exc}): using the Background colour")
-        return fallback, messages
+        return WorldEnvironment(fallback, messages)
     env = Environment(pixels, strength=strength, rotation_z_rad=rotation)
     if env.nonfinite_count:
         messages.append(f"{env.nonfinite_count} NaN/Inf pixels in {texture.image.name!r} set to 0")
-    return env, messages
+    return WorldEnvironment(env, messages)

@@ -1,0 +1,96 @@
+"""Blender materials → render materials: the BTF a material's ``btf`` settings name, else an
+analytic BTF of its surface shader (``surface_shaders.py``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import NamedTuple
+
+import bpy
+
+from ...core.codecs import load_btf
+from ...core.errors import BTFError
+from ...core.model import BTF
+from ...scene.scene import Material
+from .surface_shaders import analytic_btf
+
+#: The material an empty slot (or an object without slots) renders with.
+DEFAULT_MATERIAL_NAME = "default"
+
+
+@dataclass(frozen=True)
+class BTFFileKey:
+    """A BTF source on disk as it was when loaded: a rewritten file has a new mtime."""
+
+    path: str  # absolute, resolved
+    mtime: float  # -1.0 when the path does not exist (loading it raises)
+
+
+# Loading a BTF is costly (text tables, checksums): keep each by path and modification time.
+_btf_cache: dict[BTFFileKey, BTF] = {}
+
+
+def load_cached(path: str) -> BTF:
+    """The BTF at ``path`` (Blender's "//" relative paths allowed), loaded once per version."""
+    resolved = Path(bpy.path.abspath(path)).resolve()
+    key = BTFFileKey(str(resolved), resolved.stat().st_mtime if resolved.exists() else -1.0)
+    if key not in _btf_cache:
+        _btf_cache[key] = load_btf(resolved)
+    return _btf_cache[key]
+
+
+class ExportedMaterial(NamedTuple):
+    material: Material
+    uv_map: str  # the UV map the material asks for; '' = the active render UV map
+
+
+def export_material(material, messages: list[str]) -> ExportedMaterial:
+    """``material``: a ``bpy.types.Material`` or None (an empty slot). A BTF that cannot be
+    loaded gives a message and the analytic fallback, never an exception."""
+    settings = getattr(material, "btf", None) if material is not None else None
+    if settings is not None and settings.enabled:
+        if not settings.source:
+            messages.append(f"material {material.name!r}: BTF enabled but no source set")
+        else:
+            try:
+                btf = load_cached(settings.source)
+                render = Material(
+                    btf,
+                    uv_scale=settings.uv_scale,
+                    uv_rotation_rad=settings.uv_rotation,
+                    exposure=settings.exposure,
+                    name=material.name,
+                )
+                return ExportedMaterial(render, settings.uv_map)
+            except (BTFError, OSError) as exc:
+                messages.append(f"material {material.name!r}: {exc}")
+    name = material.name if material is not None else DEFAULT_MATERIAL_NAME
+    return ExportedMaterial(Material(analytic_btf(material, messages), name=name), "")
+
+
+@dataclass(frozen=True)
+class SlotMaterial:
+    """A material slot's render material: ``index`` into the scene's material list."""
+
+    index: int
+    uv_map: str
+    name: str  # the Blender material's name; '' for an empty slot
+
+
+@dataclass
+class MaterialTable:
+    """The scene's material list, built as slots are met: each Blender material is exported
+    once, however many objects use it."""
+
+    messages: list[str]
+    materials: list[Material] = field(default_factory=list)
+    _by_name: dict[str, SlotMaterial] = field(default_factory=dict)
+
+    def slot(self, material) -> SlotMaterial:
+        name = material.name if material is not None else ""
+        if name not in self._by_name:
+            exported = export_material(material, self.messages)
+            self._by_name[name] = SlotMaterial(len(self.materials), exported.uv_map, name)
+            self.materials.append(exported.material)
+        return self._by_name[name]
