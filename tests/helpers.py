@@ -55,6 +55,23 @@ def cli_env(**overrides: str) -> dict[str, str]:
     return env
 
 
+def venv_opencl_vendors(folder: Path) -> dict[str, str]:
+    """Environment for a Blender subprocess whose extension brings its own pyopencl: an ICD
+    folder in ``folder`` registering this venv's OpenCL drivers by absolute path, as a
+    machine's system-wide registration (/etc/OpenCL/vendors) does. pocl-binary-distribution
+    registers PoCL only inside the venv's pyopencl, by a bare library name that another
+    pyopencl's loader cannot resolve. Empty where the venv has none."""
+    spec = importlib.util.find_spec("pyopencl")
+    if spec is None or spec.origin is None:
+        return {}
+    libs = Path(spec.origin).parent / ".libs"
+    icds = sorted(libs.glob("*.icd"))
+    folder.mkdir(parents=True, exist_ok=True)
+    for icd in icds:
+        (folder / icd.name).write_text(str(libs / icd.read_text().strip()) + "\n")
+    return {"OCL_ICD_VENDORS": str(folder)} if icds else {}
+
+
 def random_queries(rng: np.random.Generator, n: int) -> np.ndarray:
     """(n, 6) uniform queries: u, v in [0, 1), θ in [0, 90°), φ in [0, 360°)."""
     return np.column_stack(
@@ -89,6 +106,28 @@ def run_python(*args, check=True, cwd=ROOT, env=None) -> subprocess.CompletedPro
 def run_cli(*args, check=True, cwd=ROOT, env=None) -> subprocess.CompletedProcess:
     """``python -m btf_addon ARGS`` in a subprocess."""
     return run_python("-m", "btf_addon", *args, check=check, cwd=cwd, env=env)
+
+
+def make_blend(path, script: str) -> None:
+    """Build a .blend in a separate Blender process (a test process must not import bpy, or,
+    under tests/blender, has the installed extension registered): ``script`` runs with
+    ``bpy``, ``scene`` and this checkout's add-on registered, then the file is saved."""
+    import textwrap
+
+    code = (
+        textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(ROOT)!r})
+        import bpy
+        import btf_addon
+        bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+        btf_addon.register()
+        scene = bpy.context.scene
+    """)
+        + textwrap.dedent(script)
+        + f"\nbpy.ops.wm.save_as_mainfile(filepath={str(path)!r})\n"
+    )
+    run_python("-c", code)
 
 
 def read_png(path) -> np.ndarray:
