@@ -163,7 +163,7 @@ def cmd_render(args) -> int:
             try:
                 bpy.ops.render.render(write_still=True)
             except RuntimeError as exc:  # the engine's ERROR reports, e.g. a compile error
-                raise BTFError(str(exc).strip().removeprefix("Error: ")) from None
+                raise BTFError(_report_text(str(exc))) from None
             seconds = time.perf_counter() - t0
     if not output.is_file() or output.stat().st_mtime_ns == before:
         raise BTFError(f"the render wrote no image to {output}")
@@ -171,6 +171,13 @@ def cmd_render(args) -> int:
     w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)
     print(f"rendered {w}x{h} with {describe(settings)} in {seconds:.2f} s -> {args.output}")
     return 0
+
+
+def _report_text(text: str) -> str:
+    """Blender's "Error: …" reports of a failed render, each once (the engine both sets the
+    render's error and reports it)."""
+    reports = [r.strip() for r in text.split("Error: ") if r.strip()]
+    return "\n".join(dict.fromkeys(reports))
 
 
 def describe(settings: RenderSettings) -> str:
