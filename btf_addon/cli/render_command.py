@@ -33,7 +33,12 @@ BTF) apply, and the flags below override them for this render only (nothing is s
 Colour: an .exr holds the scene-linear render (float RGBA). A .png is saved as Blender saves
 renders: through the scene's colour management (view transform, look, exposure, dither), so
 a scene left on Blender's default AgX view gets AgX's tone curve. The demo scene uses the
-"Standard" view without dither: its PNG is the plain sRGB curve of the render, clipped at 1.
+"Standard" view without dither: its PNG is the plain sRGB curve of the render, clipped at 1
+(what this command wrote for every PNG before it rendered through F12).
+
+Devices: OpenCL as chosen by --device or the add-on preference; with no OpenCL device at all,
+F12 warns and draws with the GLSL viewport path (no shadows). A kernel that fails to compile
+fails the render (exit code 2, with the compiler's first lines).
 """
 
 
@@ -62,7 +67,12 @@ def add_parser(sub) -> None:
         metavar="environment|headlight",
         help="environment: the World; headlight: one light from the camera",
     )
-    p.add_argument("--lights", type=int, metavar="N", help="virtual lights N (Virtual Lights)")
+    p.add_argument(
+        "--lights",
+        type=int,
+        metavar="N",
+        help="N virtual lights standing in for the World (Virtual Lights mode)",
+    )
     p.add_argument(
         "--samples", type=int, metavar="N", help="samples per pixel of the Sampled final mode"
     )

@@ -115,8 +115,10 @@ def test_scene_scale_changes_nothing(blends):
 def test_a_4k_frame_keeps_memory_bounded(blends):
     """3840×2160 renders in bands (device memory holds one band of passes), so the process's
     peak memory grows with the pixel count only by what the host must hold: the passes (10
-    floats = 40 B per pixel) and the conversions for the PNG. Measured against a 384×216 run
-    of the same scene: ≈ 110 B per added pixel (341 → 1249 MiB); the bound is 160 B."""
+    floats = 40 B per pixel), Blender's render result (Combined, 16 B) and its conversion for
+    the PNG. Measured against a 384×216 run of the same scene through F12's write_still:
+    ≈ 99 B per added pixel (474 → 1250 MiB; ≈ 110 B when the CLI wrote the PNG itself); the
+    bound is 160 B."""
     peaks = {}
     for resolution in ("384x216", "3840x2160"):
         out = blends / f"big_{resolution}.png"
