@@ -165,7 +165,7 @@ def cmd_render(args) -> int:
         else:
             bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
             scene = bpy.context.scene
-        settings = prepare_scene(bpy, scene, args, package)
+        settings = prepare_scene(scene, args)
         output = args.output.resolve()
         before = output.stat().st_mtime_ns if output.is_file() else None
         with _device_preference(bpy, package, args.device):
@@ -175,10 +175,10 @@ def cmd_render(args) -> int:
             except RuntimeError as exc:  # the engine's ERROR reports, e.g. a compile error
                 raise BTFError(_report_text(str(exc))) from None
             seconds = time.perf_counter() - t0
+        pct = scene.render.resolution_percentage / 100
+        w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)
     if not output.is_file() or output.stat().st_mtime_ns == before:
         raise BTFError(f"the render wrote no image to {output}")
-    pct = scene.render.resolution_percentage / 100
-    w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)
     print(f"rendered {w}x{h} with {describe(settings)} in {seconds:.2f} s -> {args.output}")
     return 0
 
@@ -201,7 +201,7 @@ def describe(settings: RenderSettings) -> str:
     return f"{settings.lights_total} virtual lights (seed {settings.seed})"
 
 
-def prepare_scene(bpy, scene, args, package: str) -> RenderSettings:
+def prepare_scene(scene, args) -> RenderSettings:
     """The scene as F12 will see it: the BTF engine, the overrides, the output file."""
     from ..blender.addon import ENGINE_ID
 
