@@ -55,6 +55,23 @@ def cli_env(**overrides: str) -> dict[str, str]:
     return env
 
 
+def venv_opencl_vendors(folder: Path) -> dict[str, str]:
+    """Environment for a Blender subprocess whose extension brings its own pyopencl: an ICD
+    folder in ``folder`` registering this venv's OpenCL drivers by absolute path, as a
+    machine's system-wide registration (/etc/OpenCL/vendors) does. pocl-binary-distribution
+    registers PoCL only inside the venv's pyopencl, by a bare library name that another
+    pyopencl's loader cannot resolve. Empty where the venv has none."""
+    spec = importlib.util.find_spec("pyopencl")
+    if spec is None or spec.origin is None:
+        return {}
+    libs = Path(spec.origin).parent / ".libs"
+    icds = sorted(libs.glob("*.icd"))
+    folder.mkdir(parents=True, exist_ok=True)
+    for icd in icds:
+        (folder / icd.name).write_text(str(libs / icd.read_text().strip()) + "\n")
+    return {"OCL_ICD_VENDORS": str(folder)} if icds else {}
+
+
 def random_queries(rng: np.random.Generator, n: int) -> np.ndarray:
     """(n, 6) uniform queries: u, v in [0, 1), θ in [0, 90°), φ in [0, 360°)."""
     return np.column_stack(
@@ -89,3 +106,75 @@ def run_python(*args, check=True, cwd=ROOT, env=None) -> subprocess.CompletedPro
 def run_cli(*args, check=True, cwd=ROOT, env=None) -> subprocess.CompletedProcess:
     """``python -m btf_addon ARGS`` in a subprocess."""
     return run_python("-m", "btf_addon", *args, check=check, cwd=cwd, env=env)
+
+
+def make_blend(path, script: str) -> None:
+    """Build a .blend in a separate Blender process (a test process must not import bpy, or,
+    under tests/blender, has the installed extension registered): ``script`` runs with
+    ``bpy``, ``scene`` and this checkout's add-on registered, then the file is saved."""
+    import textwrap
+
+    code = (
+        textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(ROOT)!r})
+        import bpy
+        import btf_addon
+        bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+        btf_addon.register()
+        scene = bpy.context.scene
+    """)
+        + textwrap.dedent(script)
+        + f"\nbpy.ops.wm.save_as_mainfile(filepath={str(path)!r})\n"
+    )
+    run_python("-c", code)
+
+
+def read_png(path) -> np.ndarray:
+    """An 8-bit, non-interlaced RGB or RGBA PNG → (H, W, channels) uint8, row 0 at the top:
+    enough to read back what Blender and ``core.imageio.write_png`` save, without Pillow."""
+    import struct
+    import zlib
+
+    data = Path(path).read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path}: not a PNG"
+    pos, idat, header = 8, [], None
+    while pos < len(data):
+        (length,) = struct.unpack(">I", data[pos : pos + 4])
+        kind, body = data[pos + 4 : pos + 8], data[pos + 8 : pos + 8 + length]
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat.append(body)
+        pos += 12 + length
+    width, height, depth, colour, _, _, interlace = header
+    assert depth == 8 and colour in (2, 6) and interlace == 0, header
+    channels = 3 if colour == 2 else 4
+    stride = width * channels
+    raw = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8).reshape(height, stride + 1)
+    out = np.zeros((height, stride), np.int32)
+    previous = np.zeros(stride, np.int32)
+    for y in range(height):  # undo the per-row filters (PNG spec, section 9)
+        kind, row = raw[y, 0], raw[y, 1:].astype(np.int32)
+        if kind == 0:
+            line = row
+        elif kind == 2:
+            line = (row + previous) & 255
+        else:
+            line = np.zeros(stride, np.int32)
+            for x in range(stride):
+                left = line[x - channels] if x >= channels else 0
+                up_left = previous[x - channels] if x >= channels else 0
+                if kind == 1:
+                    predictor = left
+                elif kind == 3:
+                    predictor = (left + previous[x]) // 2
+                else:  # 4: Paeth
+                    p = left + previous[x] - up_left
+                    pa, pb, pc = abs(p - left), abs(p - previous[x]), abs(p - up_left)
+                    predictor = (
+                        left if pa <= pb and pa <= pc else previous[x] if pb <= pc else up_left
+                    )
+                line[x] = (row[x] + predictor) & 255
+        out[y] = previous = line
+    return out.reshape(height, width, channels).astype(np.uint8)

@@ -10,6 +10,7 @@ import bpy
 from ..core.container import write_container
 from ..core.dense import tabulate
 from ..core.presets import make_preset
+from .addon import ENGINE_ID
 
 
 def studiolight(name: str = "forest") -> Path:
@@ -35,13 +36,24 @@ def build_demo_scene(data_dir: Path, resolution: tuple[int, int] = (640, 360)) -
     if not glossy.exists():
         write_container(glossy, make_preset("ggx", albedo=(0.9, 0.55, 0.2), roughness=0.35))
     scene = bpy.context.scene
+    scene.render.engine = ENGINE_ID
     scene.render.resolution_x, scene.render.resolution_y = resolution
     scene.render.resolution_percentage = 100
+    # Saved PNGs pass through the view transform: "Standard" is the plain sRGB curve (values
+    # above 1 clip), without AgX's tone curve, and no dither noise, so an 8-bit PNG of the
+    # demo is exactly linear → sRGB of the render.
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.render.dither_intensity = 0.0
 
     bpy.ops.mesh.primitive_monkey_add(size=1.6, location=(-1.1, 0.0, 0.0), rotation=(0, 0, -0.5))
     monkey = bpy.context.object
     bpy.ops.object.shade_smooth()
-    monkey.modifiers.new("Subdivision", "SUBSURF").levels = 1
+    subdivision = monkey.modifiers.new("Subdivision", "SUBSURF")
+    # F12 evaluates render levels (default 2), the viewport levels: one level in both.
+    subdivision.levels = subdivision.render_levels = 1
     monkey.data.materials.append(btf_material("Woven", woven, uv_scale=3.0))
 
     bpy.ops.mesh.primitive_uv_sphere_add(

@@ -5,7 +5,10 @@ render in the mode the render settings choose — Virtual Lights (exactly the vi
 deterministic) or Sampled (path tracing, shown pass by pass) — with Blender's lights, shadow
 rays where the scene can have shadows, and Combined, Depth, Normal and UV passes. Without a
 usable OpenCL device the render says so and falls back to the GLSL drawer (no shadows) in an
-offscreen buffer.
+offscreen buffer; a kernel that fails to compile is an error, never a fallback.
+
+This is the one render path: the CLI's ``render --blend`` runs it through
+``bpy.ops.render.render(write_still=True)`` as F12 and ``blender -b file.blend -f 1`` do.
 """
 
 from __future__ import annotations
@@ -15,19 +18,20 @@ import time
 import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
-from ..cl.programs import is_cached
+from ..cl.programs import OpenCLCompileError, is_cached
 from ..cl.renderer import KERNELS, CLRenderer
 from ..core.errors import BTFError
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
 from ..scene.analysis import analyse
-from .addon import ADDON_PACKAGE
 from .export import export_scene
 from .glsl_fallback import render_glsl
+from .preferences import preferred_device
 
 
 def render(engine, depsgraph) -> None:
     scene = depsgraph.scene
+    settings = RenderSettings.from_properties(scene.btf_render)
     pct = scene.render.resolution_percentage / 100
     w = max(1, int(scene.render.resolution_x * pct))
     h = max(1, int(scene.render.resolution_y * pct))
@@ -48,16 +52,20 @@ def render(engine, depsgraph) -> None:
                 "(first render with these scene features; cached afterwards)",
             )
         renderer = CLRenderer(exported, w, h, cl_context, features)
-    except (OpenCLUnavailableError, RuntimeError, BTFError) as exc:
+    except OpenCLCompileError as exc:
+        # A bug in kernels/ or a driver rejecting valid code: falling back would hide it
+        # behind a different image, so the render fails and says where the compiler stopped.
+        report_error(engine, compile_error_message(exc))
+        return
+    except (OpenCLUnavailableError, BTFError) as exc:
         engine.report(
             {"WARNING"},
             f"OpenCL unavailable ({exc}); rendering with the GLSL "
             "viewport path instead (no shadows)",
         )
-        render_glsl(engine, exported, RenderSettings.from_properties(scene.btf_render), w, h)
+        render_glsl(engine, exported, settings, w, h)
         return
     cam = exported.camera
-    settings = RenderSettings.from_properties(scene.btf_render)
     lights = frame_lights(settings, exported, cam.world_from_camera[:3, 2])
     sampled = settings.sampled
     lighting = (
@@ -119,10 +127,26 @@ def render(engine, depsgraph) -> None:
     engine.end_result(result)
 
 
-def preferred_device() -> int | None:
-    """The device index from the add-on preferences, or None for automatic."""
-    import bpy
+#: Lines of the compiler's log quoted in the error: the first error and its context (the
+#: whole log stays on the exception's ``build_log``).
+LOG_LINES = 8
 
-    addon = bpy.context.preferences.addons.get(ADDON_PACKAGE)
-    choice = getattr(getattr(addon, "preferences", None), "opencl_device", "AUTO")
-    return int(choice[3:]) if choice.startswith("DEV") else None
+
+def compile_error_message(exc: OpenCLCompileError) -> str:
+    """One report for a failed kernel compile: file, device and the log's first lines (they
+    name the line and column in the compiled source)."""
+    lines = [line for line in exc.build_log.strip().splitlines() if line.strip()]
+    quoted = "\n".join(lines[:LOG_LINES])
+    more = f"\n… {len(lines) - LOG_LINES} more lines" if len(lines) > LOG_LINES else ""
+    return (
+        f"OpenCL compile error in kernels/{exc.kernel} on {exc.device_name.strip()}; "
+        f"nothing rendered:\n{quoted}{more}"
+    )
+
+
+def report_error(engine, message: str) -> None:
+    """Fail the render with ``message``: ``error_set`` (Blender 4.x+) shows it after the
+    render, ``report`` makes ``bpy.ops.render.render`` raise it headless."""
+    if hasattr(engine, "error_set"):
+        engine.error_set(message)
+    engine.report({"ERROR"}, message)

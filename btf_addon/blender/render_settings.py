@@ -6,6 +6,33 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, PointerProperty
 from bpy.types import PropertyGroup
 
+from ..render.settings import FinalMode, Lighting
+
+# The enums' identifiers and numbers are the Python enums' names and values (one vocabulary:
+# RenderSettings.from_properties reads them back by name); only the words shown live here.
+LIGHTING_LABELS = {
+    Lighting.ENVIRONMENT: ("Environment", "Virtual lights from the World's environment"),
+    Lighting.HEADLIGHT: ("Headlight", "One light from the viewer (fast material checks)"),
+}
+FINAL_MODE_LABELS = {
+    FinalMode.VIRTUAL: (
+        "Virtual Lights",
+        "Deterministic: exactly the N virtual lights, as the viewport (no noise, an "
+        "approximation of the World)",
+    ),
+    FinalMode.SAMPLED: (
+        "Sampled",
+        "Monte Carlo: the World sampled continuously with MIS (noise that falls with the "
+        "samples, no approximation)",
+    ),
+}
+
+
+def enum_items(labels: dict) -> list[tuple[str, str, str, int]]:
+    """EnumProperty items (identifier, name, description, number) from {member: (name,
+    description)}, with the member's name and value as identifier and number."""
+    return [(member.name, name, text, member.value) for member, (name, text) in labels.items()]
+
 
 class BTFRenderSettings(PropertyGroup):
     lights_total: IntProperty(
@@ -29,31 +56,13 @@ class BTFRenderSettings(PropertyGroup):
     )
     lighting: EnumProperty(
         name="Lighting",
-        items=[
-            ("ENVIRONMENT", "Environment", "Virtual lights from the World's environment", 0),
-            ("HEADLIGHT", "Headlight", "One light from the viewer (fast material checks)", 1),
-        ],
-        default="ENVIRONMENT",
+        items=enum_items(LIGHTING_LABELS),
+        default=Lighting.ENVIRONMENT.name,
     )
     final_mode: EnumProperty(
         name="Final Render",
-        items=[
-            (
-                "VIRTUAL",
-                "Virtual Lights",
-                "Deterministic: exactly the N virtual lights, as the "
-                "viewport (no noise, an approximation of the World)",
-                0,
-            ),
-            (
-                "SAMPLED",
-                "Sampled",
-                "Monte Carlo: the World sampled continuously with MIS "
-                "(noise that falls with the samples, no approximation)",
-                1,
-            ),
-        ],
-        default="VIRTUAL",
+        items=enum_items(FINAL_MODE_LABELS),
+        default=FinalMode.VIRTUAL.name,
     )
     max_bounces: IntProperty(
         name="Max Bounces",
@@ -73,7 +82,8 @@ class BTFRenderSettings(PropertyGroup):
         name="Seed",
         default=0,
         min=0,
-        description="Randomisation of the virtual lights' low-discrepancy points",
+        description="Randomisation of the low-discrepancy points of the virtual lights and of "
+        "the Sampled final render",
     )
 
     @classmethod

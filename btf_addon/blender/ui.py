@@ -5,6 +5,7 @@ from __future__ import annotations
 import bpy
 from bpy.types import Panel
 
+from ..render.settings import FinalMode, Lighting, RenderSettings
 from .addon import ENGINE_ID
 
 
@@ -47,24 +48,23 @@ class BTF_PT_render_settings(Panel):
 
     def draw(self, context) -> None:
         settings = context.scene.btf_render
+        values = RenderSettings.from_properties(settings)
         layout = self.layout
         layout.use_property_split = True
         layout.prop(settings, "lighting")
         col = layout.column()
-        col.active = settings.lighting == "ENVIRONMENT"
+        col.active = values.lighting is Lighting.ENVIRONMENT
         col.prop(settings, "lights_total")
         col.prop(settings, "seed")
         layout.prop(settings, "progressive")
         row = layout.row()
-        row.active = settings.progressive
+        row.active = values.progressive
         row.prop(settings, "lights_per_redraw")
         layout.prop(settings, "final_mode")
-        row = layout.row()
-        row.active = settings.final_mode == "SAMPLED"
-        row.prop(settings, "samples")
-        row = layout.row()
-        row.active = settings.final_mode == "SAMPLED"
-        row.prop(settings, "max_bounces")
+        col = layout.column()
+        col.active = values.final_mode is FinalMode.SAMPLED
+        col.prop(settings, "samples")
+        col.prop(settings, "max_bounces")
 
 
 classes = (BTF_PT_material, BTF_PT_render_settings)

@@ -1,164 +1,301 @@
-"""``render``: a .blend or the demo scene, rendered headless through the add-on's renderer."""
+"""``render``: a .blend or the demo scene, rendered headless by the engine's own F12.
+
+The file is opened in Blender (the bpy module), its scene keeps every setting it was saved with
+(``scene.btf_render``: lighting, final mode, lights, samples, bounces, seed; resolution, colour
+management, passes), the flags given override them in the UI's words, and
+``bpy.ops.render.render(write_still=True)`` renders and saves the image, as F12 + Save and
+``blender -b file.blend -f 1`` do. There is no second render path here to drift from F12.
+"""
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
-
 from ..core.errors import BTFError
-from ..core.imageio import srgb8_from_linear, write_exr, write_png
-from .btf_commands import add_device_argument
+from ..render.settings import FinalMode, Lighting, RenderSettings
+
+#: Output suffix → Blender image settings: 8-bit RGBA PNG (through the view transform) or
+#: 32-bit float RGBA EXR (scene-linear values).
+FORMATS = {
+    ".png": {"file_format": "PNG", "color_mode": "RGBA", "color_depth": "8"},
+    ".exr": {"file_format": "OPEN_EXR", "color_mode": "RGBA", "color_depth": "32"},
+}
+
+DESCRIPTION = """\
+Render a .blend (its active scene) or the demo scene through the BTF engine's F12, exactly as
+`blender -b file.blend -f 1` renders it: the scene's own render settings (Render Properties >
+BTF) apply, and the flags below override them for this render only (nothing is saved).
+
+Colour: an .exr holds the scene-linear render (float RGBA). A .png is saved as Blender saves
+renders: through the scene's colour management (view transform, look, exposure, dither), so
+a scene left on Blender's default AgX view gets AgX's tone curve. The demo scene uses the
+"Standard" view without dither: its PNG is the plain sRGB curve of the render, clipped at 1
+(what this command wrote for every PNG before it rendered through F12).
+
+Devices: OpenCL as chosen by --device or the add-on preference; with no OpenCL device at all,
+F12 warns and draws with the GLSL viewport path (no shadows). A kernel that fails to compile
+fails the render (exit code 2, with the compiler's first lines).
+"""
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("render", help="render a .blend or the demo scene headless")
+    p = sub.add_parser(
+        "render",
+        help="render a .blend or the demo scene headless (the engine's own F12)",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--blend", type=Path, help="the .blend file to render (its active scene)")
     source.add_argument("--demo", action="store_true", help="the demo scene (no file needed)")
     p.add_argument("-o", "--output", required=True, type=Path, help=".png or .exr")
+    p.add_argument("--resolution", type=_resolution, metavar="WxH", help="e.g. 800x600 (at 100 %%)")
     p.add_argument(
-        "--engine",
-        choices=["opencl", "glsl"],
-        default="opencl",
-        help="opencl: the final render (ray traced, shadows); glsl: the viewport's renderer "
-        "(no shadows); both light with the same virtual lights",
-    )
-    add_device_argument(p)
-    p.add_argument(
-        "--resolution",
-        default=None,
-        metavar="WxH",
-        help="override the scene's resolution, e.g. 800x600",
+        "--final-mode",
+        type=_enum_choice(FinalMode),
+        metavar="virtual|sampled",
+        help="virtual: exactly the N virtual lights (deterministic); sampled: the World "
+        "sampled continuously with MIS, path traced (noise that falls with --samples)",
     )
     p.add_argument(
         "--lighting",
-        default="virtual:256",
-        metavar="virtual:N|envmap",
-        help="virtual:N — N importance-sampled virtual lights (deterministic, default 256); "
-        "envmap — the World sampled continuously with MIS, --samples per pixel (opencl only)",
+        type=_lighting,
+        metavar="environment|headlight",
+        help="environment: the World; headlight: one light from the camera",
     )
     p.add_argument(
-        "--samples",
+        "--lights",
         type=int,
-        default=None,
-        help="envmap lighting: samples per pixel (default 64); glsl engine: lights per "
-        "accumulation pass (default: all)",
+        metavar="N",
+        help="N virtual lights standing in for the World (Virtual Lights mode)",
     )
     p.add_argument(
-        "--bounces", type=int, default=4, help="envmap lighting: indirect reflections (default 4)"
+        "--samples", type=int, metavar="N", help="samples per pixel of the Sampled final mode"
     )
+    p.add_argument(
+        "--bounces", type=int, metavar="N", help="indirect reflections of the Sampled final mode"
+    )
+    p.add_argument(
+        "--seed", type=int, metavar="N", help="randomisation of lights and samples' points"
+    )
+    p.add_argument(
+        "--device",
+        type=int,
+        metavar="N",
+        help="OpenCL device index as `doctor` lists them, set as the add-on preference "
+        "(Preferences > Add-ons > BTF Materials > OpenCL Device) for this render; default: "
+        "that preference (Automatic: best GPU, else CPU)",
+    )
+    p.add_argument("--engine", type=_removed_engine, help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_render)
 
 
-def _parse_resolution(text: str | None) -> tuple[int, int] | None:
-    if text is None:
-        return None
+def _resolution(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise BTFError(f"--resolution must look like 800x600, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must look like 800x600, got {text!r}") from None
     if not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise BTFError(f"--resolution {w}x{h} is outside 1…16384")
+        raise argparse.ArgumentTypeError(f"{w}x{h} is outside 1…16384")
     return w, h
 
 
-def _parse_lighting(text: str) -> int | None:
-    """N for virtual:N, None for envmap (continuous sampling)."""
-    if text == "envmap":
-        return None
-    kind, _, count = text.partition(":")
-    if kind != "virtual" or not count.isdigit() or int(count) < 1:
-        raise BTFError(f"--lighting must be virtual:N with N ≥ 1 or envmap, got {text!r}")
-    return int(count)
+def _enum_choice(enum_type):
+    """Lower-case member names of ``enum_type`` on the command line → the member."""
+
+    def parse(text: str):
+        try:
+            return enum_type[text.upper()]
+        except KeyError:
+            names = "|".join(m.name.lower() for m in enum_type)
+            raise argparse.ArgumentTypeError(f"must be one of {names}, got {text!r}") from None
+
+    return parse
+
+
+def _lighting(text: str) -> Lighting:
+    if text.startswith("virtual:") or text == "envmap":
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is the old form: --lighting is now environment|headlight, as in the UI; "
+            "use --final-mode virtual --lights N (was virtual:N) or --final-mode sampled "
+            "(was envmap)"
+        )
+    return _enum_choice(Lighting)(text)
+
+
+def _removed_engine(_text: str):
+    raise argparse.ArgumentTypeError(
+        "--engine is gone: the CLI renders through the engine's F12 (OpenCL, falling back to "
+        "the GLSL drawer only where no OpenCL device exists); choose the device with --device N"
+    )
+
+
+def overrides(args) -> dict:
+    """The flags given, as ``RenderSettings`` field values (None: keep the scene's)."""
+    return {
+        "final_mode": args.final_mode,
+        "lighting": args.lighting,
+        "lights_total": args.lights,
+        "samples": args.samples,
+        "max_bounces": args.bounces,
+        "seed": args.seed,
+    }
 
 
 def cmd_render(args) -> int:
     suffix = args.output.suffix.lower()
-    if suffix not in (".png", ".exr"):
+    if suffix not in FORMATS:
         raise BTFError(f"{args.output}: output must end in .png or .exr")
-    resolution = _parse_resolution(args.resolution)
-    n_lights = _parse_lighting(args.lighting)
     if args.blend is not None and not args.blend.is_file():
         raise BTFError(f"{args.blend}: no such .blend file")
-    t0 = time.perf_counter()
     try:
         import bpy
     except ImportError:
         raise BTFError("rendering needs Blender's bpy module (pip install bpy==5.0.1)") from None
-    from .. import blender
-    from ..blender.demo import build_demo_scene
-    from ..blender.export import export_scene
 
-    registered = hasattr(bpy.types.Material, "btf")
-    if not registered:  # no installed copy enabled in this Blender: register this one
-        blender.register()
-    try:
+    with _engine_registered(bpy) as package:
         if args.demo:
+            from ..blender.demo import build_demo_scene
+
             scene = build_demo_scene(args.output.parent / "demo_data")
         else:
             bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
             scene = bpy.context.scene
-        if resolution:
-            scene.render.resolution_x, scene.render.resolution_y = resolution
-            scene.render.resolution_percentage = 100
+        settings = prepare_scene(scene, args)
+        output = args.output.resolve()
+        before = output.stat().st_mtime_ns if output.is_file() else None
+        with _device_preference(bpy, package, args.device):
+            t0 = time.perf_counter()
+            try:
+                bpy.ops.render.render(write_still=True)
+            except RuntimeError as exc:  # the engine's ERROR reports, e.g. a compile error
+                raise BTFError(_report_text(str(exc))) from None
+            seconds = time.perf_counter() - t0
         pct = scene.render.resolution_percentage / 100
-        width = max(1, int(scene.render.resolution_x * pct))
-        height = max(1, int(scene.render.resolution_y * pct))
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-        render_scene = export_scene(depsgraph, width, height)
-    finally:
-        if not registered:
-            blender.unregister()
-    for message in render_scene.messages:
-        print(f"warning: {message}", file=sys.stderr)
-    t_export = time.perf_counter()
-    if n_lights is None and args.engine == "glsl":
-        raise BTFError(
-            "--lighting envmap needs the opencl engine (the viewport uses virtual lights)"
-        )
-    lights = render_scene.environment.virtual_lights(n_lights or 1)
-    image = _render(args, render_scene, width, height, lights)
-    t_render = time.perf_counter()
-    if suffix == ".exr":
-        write_exr(args.output, image)
-    else:
-        write_png(args.output, srgb8_from_linear(image))
-    print(
-        f"rendered {width}x{height} with {_lighting_label(args, n_lights)}: scene export "
-        f"{t_export - t0:.2f} s, {args.engine} render {t_render - t_export:.2f} s -> {args.output}"
-    )
-    if not np.all(np.isfinite(image)):
-        raise BTFError("the render produced non-finite pixels")
+        w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)
+    if not output.is_file() or output.stat().st_mtime_ns == before:
+        raise BTFError(f"the render wrote no image to {output}")
+    print(f"rendered {w}x{h} with {describe(settings)} in {seconds:.2f} s -> {args.output}")
     return 0
 
 
-def _render(args, scene, width: int, height: int, lights) -> np.ndarray:
-    if args.engine == "glsl":
-        from ..gl.renderer import GLSLRenderer
+def _report_text(text: str) -> str:
+    """Blender's "Error: …" reports of a failed render, each once (the engine both sets the
+    render's error and reports it)."""
+    reports = [r.strip() for r in text.split("Error: ") if r.strip()]
+    return "\n".join(dict.fromkeys(reports))
 
-        try:
-            renderer = GLSLRenderer(scene, width, height)
-        except RuntimeError as exc:
-            raise BTFError(f"the GLSL renderer is unavailable: {exc}") from None
-        return renderer.render(lights, per_pass=args.samples)
-    from ..cl.context import OpenCLUnavailableError, create_context
-    from ..cl.renderer import CLRenderer
 
+def describe(settings: RenderSettings) -> str:
+    if settings.lighting is Lighting.HEADLIGHT:
+        return "the headlight"
+    if settings.sampled:
+        return (
+            f"the environment sampled, {settings.samples} samples per pixel, "
+            f"{settings.max_bounces} bounces (seed {settings.seed})"
+        )
+    return f"{settings.lights_total} virtual lights (seed {settings.seed})"
+
+
+def prepare_scene(scene, args) -> RenderSettings:
+    """The scene as F12 will see it: the BTF engine, the overrides, the output file."""
+    from ..blender.addon import ENGINE_ID
+
+    if scene.camera is None:
+        raise BTFError(f"the scene {scene.name!r} has no camera to render from")
+    if scene.render.engine != ENGINE_ID:
+        print(
+            f"note: the scene's render engine is {scene.render.engine}; rendering with BTF",
+            file=sys.stderr,
+        )
+        scene.render.engine = ENGINE_ID
+    given = overrides(args)
+    _check_ranges(scene.btf_render, given)
+    settings = RenderSettings.from_properties(scene.btf_render).with_overrides(**given)
+    settings.to_properties(scene.btf_render)
+    if args.resolution is not None:
+        scene.render.resolution_x, scene.render.resolution_y = args.resolution
+        scene.render.resolution_percentage = 100
+    image = scene.render.image_settings
+    if hasattr(image, "media_type"):  # Blender 5: a multilayer EXR or video first
+        image.media_type = "IMAGE"
+    for name, value in FORMATS[args.output.suffix.lower()].items():
+        setattr(image, name, value)
+    scene.render.filepath = str(args.output.resolve())
+    scene.render.use_file_extension = False  # exactly the path given
+    return settings
+
+
+#: RenderSettings fields the flags set, by flag (for messages).
+FLAGS = {"lights_total": "--lights", "samples": "--samples", "max_bounces": "--bounces"}
+
+
+def _check_ranges(props, given: dict) -> None:
+    """Blender clamps out-of-range values silently; a command line should say so instead."""
+    for name, value in given.items():
+        if not isinstance(value, int) or isinstance(value, bool):
+            continue
+        prop = props.bl_rna.properties[name]
+        if not prop.hard_min <= value <= prop.hard_max:
+            flag = FLAGS.get(name, f"--{name}")
+            raise BTFError(f"{flag} {value} is outside {prop.hard_min}…{prop.hard_max}")
+
+
+@contextmanager
+def _engine_registered(bpy):
+    """Yields the package of the add-on that will render: an installed copy enabled in this
+    Blender, else this checkout, registered for the command's duration."""
+    from .. import blender
+    from ..blender.addon import ADDON_PACKAGE, ENGINE_ID
+
+    engine = next(
+        (
+            e
+            for e in bpy.types.RenderEngine.__subclasses__()
+            if getattr(e, "bl_idname", "") == ENGINE_ID
+        ),
+        None,
+    )
+    if engine is not None:  # its copy's blender/addon.py knows the copy's package name
+        yield sys.modules[engine.__module__.rpartition(".")[0] + ".addon"].ADDON_PACKAGE
+        return
+    blender.register()
     try:
-        renderer = CLRenderer(scene, width, height, create_context(args.device))
-    except (OpenCLUnavailableError, RuntimeError) as exc:
-        raise BTFError(f"OpenCL final render unavailable ({exc}); try --engine glsl") from None
-    if args.lighting == "envmap":
-        return renderer.render_sampled(args.samples or 64, seed=0, max_bounces=args.bounces)[
-            ..., :3
-        ]
-    return renderer.render_direct(lights).combined[..., :3]
+        yield ADDON_PACKAGE
+    finally:
+        blender.unregister()
 
 
-def _lighting_label(args, n_lights: int | None) -> str:
-    if n_lights is None:
-        return f"the environment sampled, {args.samples or 64} samples per pixel"
-    return f"{n_lights} virtual lights"
+@contextmanager
+def _device_preference(bpy, package: str, device: int | None):
+    """The add-on preference ``opencl_device`` set to ``device`` for the render (the add-on
+    entry created as ``addon_utils`` does where this checkout registered itself)."""
+    if device is None:
+        yield
+        return
+    from ..blender.preferences import device_identifier
+
+    addons = bpy.context.preferences.addons
+    entry, created = addons.get(package), False
+    if entry is None:
+        entry, created = addons.new(), True
+        entry.module = package
+    previous = entry.preferences.opencl_device
+    try:
+        try:
+            entry.preferences.opencl_device = device_identifier(device)
+        except TypeError:
+            raise BTFError(
+                f"--device {device}: no such OpenCL device (`python -m btf_addon doctor` "
+                "lists them)"
+            ) from None
+        yield
+    finally:
+        if created:
+            addons.remove(entry)
+        else:
+            entry.preferences.opencl_device = previous

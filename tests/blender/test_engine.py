@@ -4,7 +4,10 @@ renderer, same shaders), passes, errors."""
 
 from __future__ import annotations
 
+import ctypes
 import math
+import re
+import shutil
 
 import numpy as np
 import pytest
@@ -89,12 +92,25 @@ def test_f12_renders_through_opencl(bpy_module, fresh_scene, tmp_path):
     assert rendered[32, 48].max() > 0.05  # the sphere is there and lit
 
 
-def test_f12_without_opencl_falls_back_to_glsl(bpy_module, fresh_scene, tmp_path, without_opencl):
+def blender_output(capfd) -> str:
+    """What Blender printed so far (reports go through C stdio: flush it first)."""
+    ctypes.CDLL(None).fflush(None)
+    return capfd.readouterr().out
+
+
+def test_f12_without_opencl_falls_back_to_glsl(
+    bpy_module, fresh_scene, tmp_path, without_opencl, capfd
+):
     from btf_addon.core.analytic import GGXBTF
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
     scene = build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    blender_output(capfd)
     rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
+    assert (
+        "Warning: OpenCL unavailable (no OpenCL platform found (test)); rendering with the "
+        "GLSL viewport path instead (no shadows)"
+    ) in blender_output(capfd)
     assert rendered.shape == reference.shape
     # Same shaders, same data, two OpenGL pipelines (Blender's and moderngl's): agreement to
     # single-precision rounding.
@@ -131,21 +147,72 @@ def test_f12_glsl_fallback_with_measured_btf(bpy_module, fresh_scene, tmp_path, 
     assert differs.mean() < 0.05
 
 
-def test_f12_reports_errors_instead_of_crashing(bpy_module, fresh_scene, tmp_path):
-    scene = bpy_module.context.scene
+def test_f12_reports_errors_instead_of_crashing(bpy_module, fresh_scene, tmp_path, capfd):
+    """A material whose BTF file is missing: a warning naming the material and the file, and
+    the object drawn with the material's own surface (its Principled/diffuse colour as an
+    analytic BTF) — pixel for pixel what the material renders with BTF switched off."""
+    bpy = bpy_module
+    scene = bpy.context.scene
     scene.render.engine = "BTF_RENDER"
     scene.render.resolution_x, scene.render.resolution_y = 16, 16
-    bpy_module.ops.mesh.primitive_cube_add()
-    cam = bpy_module.data.objects.new("Cam", bpy_module.data.cameras.new("Cam"))
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.btf_render.lights_total = 16
+    bpy.ops.mesh.primitive_cube_add()
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
     scene.collection.objects.link(cam)
+    cam.location = (0.0, -6.0, 0.0)
+    cam.rotation_euler = (math.radians(90.0), 0.0, 0.0)
     scene.camera = cam
-    material = bpy_module.data.materials.new("Broken")
+    world = bpy.data.worlds.new("W")
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    scene.world = world
+    material = bpy.data.materials.new("Broken")
     material.btf.enabled = True
     material.btf.source = str(tmp_path / "missing.btfm")
-    bpy_module.context.object.data.materials.append(material)
-    scene.render.filepath = str(tmp_path / "x.png")
-    bpy_module.ops.render.render(write_still=True)  # a warning, a grey fallback, no exception
-    assert (tmp_path / "x.png").exists()
+    bpy.context.object.data.materials.append(material)
+    scene.render.filepath = str(tmp_path / "x.exr")
+    blender_output(capfd)
+    bpy.ops.render.render(write_still=True)  # a warning, the material's own look, no exception
+    warnings = [line for line in blender_output(capfd).splitlines() if "Warning:" in line]
+    assert any("material 'Broken'" in w and "missing.btfm" in w for w in warnings), warnings
+    broken = read_exr(tmp_path / "x.exr")
+    material.btf.enabled = False
+    bpy.ops.render.render(write_still=True)
+    np.testing.assert_array_equal(broken, read_exr(tmp_path / "x.exr"))
+    centre = broken[8, 8]  # the cube's front face, lit grey by the grey World
+    assert centre.min() > 0.05 and np.ptp(centre) < 1e-3 * centre.max()
+
+
+def test_f12_compile_error_is_an_error_not_a_fallback(
+    bpy_module, fresh_scene, tmp_path, monkeypatch, capfd
+):
+    """A kernel that does not compile (here: the installed extension's kernels/ copied with
+    one bad line) fails F12 with the compiler's message — kernel file, device, the log's
+    line:column of the error — and renders nothing: no image is saved and the GLSL fallback,
+    which is for missing devices only, is not used."""
+    from btf_addon.core.analytic import GGXBTF
+
+    programs = extension_submodule("btf_addon.cl.programs")
+    kernels = tmp_path / "kernels"
+    shutil.copytree(programs.KERNELS_DIR, kernels)
+    source = kernels / "render_direct.cl"
+    source.write_text(source.read_text() + "\nfloat btf_broken(void) { return btf_no_such; }\n")
+    compiled = programs.expand_includes(source).splitlines()
+    line = next(i for i, text in enumerate(compiled, 1) if "btf_no_such" in text)
+    monkeypatch.setattr(programs, "KERNELS_DIR", kernels)
+
+    write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
+    build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    blender_output(capfd)
+    with pytest.raises(RuntimeError) as failure:
+        bpy_module.ops.render.render(write_still=True)
+    message = str(failure.value)
+    assert "OpenCL compile error in kernels/render_direct.cl" in message, message
+    assert "nothing rendered" in message and "btf_no_such" in message
+    # Where: PoCL names its copy of the compiled text (includes expanded) and line:column.
+    assert re.search(rf"\.cl:{line}:\d+: use of undeclared identifier", message), message
+    assert not (tmp_path / "f12.exr").exists()
+    assert "GLSL" not in blender_output(capfd)
 
 
 def test_engine_is_registered_with_its_panels(bpy_module, installed):
@@ -174,18 +241,71 @@ def test_headlight_mode_lights_the_view(bpy_module, fresh_scene, tmp_path, light
     assert 0.8 < centre.mean() < 1.05
 
 
-def test_f12_with_passes_enabled(bpy_module, fresh_scene, tmp_path):
-    """Depth, Normal and UV passes are added to the result when enabled (their values are
-    checked on the renderer itself in tests/kernels; Blender 5's write_still saves only the
-    Combined pass of a multilayer EXR, for Cycles too, so they cannot be read back here)."""
+def test_f12_passes_hold_depth_normal_and_uv(bpy_module, fresh_scene, tmp_path, monkeypatch):
+    """Depth, Normal and UV of a known plane: a 2 × 2 plane at z = 0 (UVs 0…1 across it) seen
+    straight down from z = 5 by a 50 mm lens on a 36 mm sensor. Blender 5's write_still
+    saves only the Combined pass, so the passes are read from the render result as the
+    engine hands it back to Blender (``end_result``)."""
     from btf_addon.core.analytic import LambertianBTF
 
+    bpy = bpy_module
+    w, h = 64, 48
     write_container(tmp_path / "white.btfm", LambertianBTF(0.5))
-    scene = build_scene(bpy_module, tmp_path, tmp_path / "white.btfm")
+    scene = build_scene(bpy, tmp_path, tmp_path / "white.btfm", size=(w, h))
+    for obj in list(scene.objects):
+        if obj.type == "MESH":
+            bpy.data.objects.remove(obj)
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    scene.camera.location = (0.0, 0.0, 5.0)
+    scene.camera.rotation_euler = (0.0, 0.0, 0.0)
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = layer.use_pass_uv = True
-    bpy_module.ops.render.render(write_still=True)
-    assert read_exr(tmp_path / "f12.exr")[32, 48].max() > 0.05
+
+    final_render = extension_submodule("btf_addon.blender.final_render")
+    passes = {}
+
+    class ReadBack:
+        """The real engine, with end_result reading the passes before Blender takes them
+        (RNA methods cannot be patched on the engine class itself)."""
+
+        def __init__(self, engine):
+            self.engine = engine
+
+        def __getattr__(self, name):
+            return getattr(self.engine, name)
+
+        def end_result(self, result, *args, **kwargs):
+            for render_pass in result.layers[0].passes:
+                rect = np.array(render_pass.rect, dtype=np.float32)
+                passes[render_pass.name] = rect.reshape(h, w, -1)[::-1]  # bottom row first
+            return self.engine.end_result(result, *args, **kwargs)
+
+    original = final_render.render
+    monkeypatch.setattr(
+        final_render, "render", lambda engine, depsgraph: original(ReadBack(engine), depsgraph)
+    )
+    bpy.ops.render.render(write_still=True)
+    assert {"Combined", "Depth", "Normal", "UV"} <= passes.keys()
+
+    # Where each pixel centre's ray meets z = 0 (horizontal sensor fit: half-width 18/50).
+    half_x = 5.0 * 18.0 / 50.0
+    x = ((np.arange(w) + 0.5) / w * 2 - 1) * half_x
+    y = (1 - (np.arange(h) + 0.5) / h * 2) * half_x * h / w
+    xx, yy = np.meshgrid(x, y)
+    inside = (np.abs(xx) < 0.95) & (np.abs(yy) < 0.95)  # a margin off the plane's edge
+    outside = (np.abs(xx) > 1.05) | (np.abs(yy) > 1.05)
+    depth, normal, uv = passes["Depth"][..., 0], passes["Normal"], passes["UV"]
+    # Depth: distance along the camera axis, 5 on the whole plane; Blender's 1e10 off it.
+    np.testing.assert_allclose(depth[inside], 5.0, rtol=1e-5)
+    assert np.all(depth[outside] >= 1e9)
+    np.testing.assert_allclose(
+        normal[inside], np.broadcast_to([0, 0, 1], normal[inside].shape), atol=1e-5
+    )
+    # UV: the plane's default map, u = x/2 + 1/2, v = y/2 + 1/2; float32 hit points: 1e-4.
+    np.testing.assert_allclose(uv[inside][:, 0], xx[inside] / 2 + 0.5, atol=1e-4)
+    np.testing.assert_allclose(uv[inside][:, 1], yy[inside] / 2 + 0.5, atol=1e-4)
+    np.testing.assert_allclose(uv[inside][:, 2], 1.0)
+    assert passes["Combined"][inside][:, :3].min() > 0.05  # lit
 
 
 def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
