@@ -41,7 +41,7 @@ build: setup wheels
 
 demo: setup
 	$(PY) -m btf_addon doctor
-	$(PY) -m btf_addon render --demo -o out/demo.png --resolution 640x360 --lighting virtual:128
+	$(PY) -m btf_addon render --demo -o out/demo.png --resolution 640x360 --lights 128
 
 bench: setup
 	$(PY) benchmarks/run_all.py

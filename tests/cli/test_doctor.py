@@ -106,7 +106,7 @@ def test_a_probe_that_raises_is_reported_with_its_exception(report):
 def test_hidden_opencl_drivers_are_reported_missing(report):
     opencl = report["opencl"]
     assert opencl["ok"] is False
-    assert opencl["error"].startswith("RuntimeError: no OpenCL platform found")
+    assert opencl["error"].startswith("OpenCLUnavailableError: no OpenCL platform found")
     assert "pocl" in opencl["how_to_fix"]
 
 
