@@ -139,7 +139,7 @@ def compile_error_message(exc: OpenCLCompileError) -> str:
     quoted = "\n".join(lines[:LOG_LINES])
     more = f"\n… {len(lines) - LOG_LINES} more lines" if len(lines) > LOG_LINES else ""
     return (
-        f"OpenCL compile error in kernels/{exc.kernel} on {exc.device_name.strip()}; "
+        f"OpenCL compile error in {exc.kernel} on {exc.device_name.strip()}; "
         f"nothing rendered:\n{quoted}{more}"
     )
 
