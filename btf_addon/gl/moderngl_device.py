@@ -50,6 +50,12 @@ class _Target:
                 obj.release()
 
 
+def _alive(fbo) -> bool:
+    import moderngl
+
+    return fbo is not None and not isinstance(fbo.mglo, moderngl.InvalidObject)
+
+
 class ModernGLDevice:
     """``ctx``: a moderngl context to draw in; None creates a headless EGL one, which
     ``close`` then releases."""
@@ -102,7 +108,7 @@ class ModernGLDevice:
         try:
             yield
         finally:
-            if previous is not None:  # a standalone context starts with none bound
+            if _alive(previous):  # none at first in a standalone context, or released since
                 previous.use()
 
     def clear(self, colour: tuple[float, float, float, float]) -> None:
@@ -151,8 +157,9 @@ class ModernGLDevice:
 
     def release(self, *objects) -> None:
         for obj in objects:
-            if obj is not None:
-                obj.release()
+            if obj is None:
+                continue
+            obj.release()
 
     def close(self) -> None:
         """Release the compiled programs, and the context if this adapter created it."""
