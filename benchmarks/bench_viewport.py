@@ -4,7 +4,8 @@
 Scene: a 96×48 UV sphere with the measured alu BTF (or a tabulated woven preset where the shared
 data is absent) on a ground plane with the wallpaper BTF, forest studiolight. Frame = one
 accumulation pass of K lights plus the resolve. Error: relative RMSE against the same view lit by
-1024 virtual lights (a converged image).
+1024 virtual lights (a converged image). Stereo: two eyes as two views of one drawer (the VR
+path) against two independent renderers, which upload the scene twice.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from btf_addon.core.dense import tabulate
 from btf_addon.core.envmap import Environment
 from btf_addon.core.imageio import read_exr
 from btf_addon.core.microgeometry import woven
+from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
+from btf_addon.gl.moderngl_device import ModernGLDevice
 from btf_addon.gl.renderer import GLSLRenderer
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
@@ -58,6 +61,81 @@ def frame_time(renderer: GLSLRenderer, frames: int) -> float:
 
 def rel_rmse(a, b):
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def stereo(scene: Scene, eye: tuple[int, int] = (400, 400), frames: int = 3) -> str:
+    """Both eyes, K = 5 lights each per frame: one drawer with two views against two renderers.
+    Times include ``ctx.finish()``: OpenGL queues work, a frame is done when the GPU is."""
+    lights = scene.environment.virtual_lights(200)
+    eyes = [
+        Camera(look_at((x, -4.5, 1.2), (0.0, 0.0, -0.2)), fov_y_rad=np.radians(60))
+        for x in (-0.032, 0.032)
+    ]
+    w, h = eye
+    rows = []
+
+    device = ModernGLDevice()
+    t0 = time.perf_counter()
+    drawer = ProgressiveDrawer(device, scene)
+    views = [ViewAccumulation(device, w, h) for _ in eyes]
+    device.ctx.finish()
+    setup = time.perf_counter() - t0
+
+    def shared_frame(restart: bool) -> None:
+        for view, cam in zip(views, eyes, strict=True):
+            if restart:
+                view.set_lights(lights, per_pass=5)
+                drawer.restart(view, cam.clip_from_world(w / h), cam.shader_vector())
+            drawer.add_batch(view)
+            drawer.resolve(view)
+        device.ctx.finish()
+
+    shared_frame(restart=True)
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        shared_frame(restart=False)
+    rows.append(
+        [
+            "one drawer, two views",
+            round(setup, 3),
+            round((time.perf_counter() - t0) / frames * 1000, 1),
+        ]
+    )
+    for view in views:
+        view.release()
+    drawer.release()
+    device.close()
+
+    t0 = time.perf_counter()
+    renderers = [
+        GLSLRenderer(Scene(scene.meshes, scene.materials, cam, scene.environment), w, h)
+        for cam in eyes
+    ]
+    for r in renderers:
+        r.ctx.finish()
+    setup = time.perf_counter() - t0
+
+    def separate_frame(restart: bool) -> None:
+        for r in renderers:
+            if restart:
+                r.set_lights(lights, per_pass=5)
+                r.restart()
+            r.render_pass()
+            r.drawer.resolve(r.view)
+            r.ctx.finish()
+
+    separate_frame(restart=True)
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        separate_frame(restart=False)
+    rows.append(
+        ["two renderers", round(setup, 3), round((time.perf_counter() - t0) / frames * 1000, 1)]
+    )
+    for r in renderers:
+        r.release()
+    return table(
+        [f"stereo, {w}×{h} per eye", "s to set up (uploads)", "ms per frame, both eyes (K=5)"], rows
+    )
 
 
 def main() -> str:
@@ -113,6 +191,7 @@ def main() -> str:
         )
         rr.release()
     out.append(table(["dense BTF texels (81×81 dirs)", "table KiB", "ms per frame (K=5)"], rows))
+    out.append(stereo(scene))
     return "\n\n".join(out)
 
 
