@@ -225,19 +225,25 @@ class ProgressiveDrawer:
 
     def resolve(self, view: ViewAccumulation) -> None:
         """Draw ``view``'s image so far into its output target."""
+        with self.device.bound(view.output):
+            self.draw_resolved(view)
+
+    def draw_resolved(self, view: ViewAccumulation) -> None:
+        """Draw ``view``'s image so far into the bound framebuffer, which must have the view's
+        size (pixels are fetched at the fragment's own coordinates): an eye's framebuffer in
+        a draw callback, a swapchain image."""
         device = self.device
         done = view.state.done if view.state is not None else 0
-        with device.bound(view.output):
-            device.set_state(DEFAULT_STATE)
-            device.draw(
-                self.resolve_program,
-                self.quad_resolve,
-                {"resolve_params": (max(done, 1), 0.0, 0.0, 0.0)},
-                {
-                    "accumulation": device.target_texture(view.accumulation),
-                    "background": device.target_texture(view.background),
-                },
-            )
+        device.set_state(DEFAULT_STATE)
+        device.draw(
+            self.resolve_program,
+            self.quad_resolve,
+            {"resolve_params": (max(done, 1), 0.0, 0.0, 0.0)},
+            {
+                "accumulation": device.target_texture(view.accumulation),
+                "background": device.target_texture(view.background),
+            },
+        )
 
     def _draw_surfaces(self, view: ViewAccumulation, first: int, count: int, state: DrawState):
         device = self.device

@@ -146,3 +146,30 @@ def test_misuse_is_refused(gl_ctx, rng):
     finally:
         view.release()
         drawer.release()
+
+
+def test_resolving_into_a_callers_framebuffer_equals_the_views_output(gl_ctx, rng):
+    """``draw_resolved`` (an eye's framebuffer in a draw callback, a swapchain image) draws the
+    pixels ``resolve`` puts into the view's own output."""
+    from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
+    from btf_addon.gl.moderngl_device import ModernGLDevice
+
+    device = ModernGLDevice(gl_ctx)
+    scene = two_material_scene(rng)
+    drawer = ProgressiveDrawer(device, scene)
+    view = ViewAccumulation(device, W, H)
+    swapchain_image = device.target(W, H, "RGBA32F", depth=False)
+    try:
+        view.set_lights(scene.environment.virtual_lights(6), per_pass=4)
+        restart(drawer, view, scene.camera)
+        drawer.add_batch(view)  # 4 of 6: the division by the lights so far is exercised
+        drawer.resolve(view)
+        with device.bound(swapchain_image):
+            drawer.draw_resolved(view)
+        own = view.read()
+        assert own[..., :3].max() > 0.1
+        np.testing.assert_array_equal(device.read(swapchain_image), own)
+    finally:
+        device.release(swapchain_image)
+        view.release()
+        drawer.release()
