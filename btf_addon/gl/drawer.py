@@ -96,7 +96,10 @@ class ProgressiveDrawer:
     """
 
     def __init__(self, device: Device, scene: Scene, previous: ProgressiveDrawer | None = None):
+        if previous is not None and previous.released:
+            raise RuntimeError("the previous drawer was released or already handed over")
         self.device, self.scene = device, scene
+        self.released = False
         self.surface = device.program(SURFACE_SHADER)
         self.background_program = device.program(BACKGROUND_SHADER)
         self.resolve_program = device.program(RESOLVE_SHADER)
@@ -176,18 +179,24 @@ class ProgressiveDrawer:
     def _hand_over(self, successor: ProgressiveDrawer) -> None:
         kept = {id(o) for o in successor._owned()}
         self.device.release(*(o for o in self._owned() if id(o) not in kept))
-        self._table_uploads, self._batch_uploads, self.tables, self.batches = {}, {}, [], []
+        self._forget()
 
     def release(self) -> None:
         """Free the scene's uploads (views are released by their owner)."""
         self.device.release(*self._owned())
+        self._forget()
+
+    def _forget(self) -> None:
         self._table_uploads, self._batch_uploads, self.tables, self.batches = {}, {}, [], []
+        self.released = True
 
     # --- drawing ---------------------------------------------------------------------------
     def restart(self, view: ViewAccumulation, clip_from_world: np.ndarray, camera) -> None:
         """Start ``view``'s accumulation from ``clip_from_world`` ((4, 4)) and ``camera`` ((4,):
         position and 1, or direction towards the viewer and 0): the World into its background,
         its accumulation cleared and given the depth the light batches test EQUAL against."""
+        if self.released:
+            raise RuntimeError("this drawer was released or handed over to a newer one")
         view.clip_from_world = np.array(clip_from_world, dtype=np.float64)
         view.camera = np.array(camera, dtype=np.float64)
         device = self.device

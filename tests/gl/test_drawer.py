@@ -119,6 +119,8 @@ def test_a_drawer_reuses_unchanged_uploads_of_the_previous(gl_ctx, rng):
             drawer.add_batch(view)
             images.append(image(drawer, view))
         np.testing.assert_array_equal(images[0], images[1])
+        with pytest.raises(RuntimeError, match="handed over"):  # its uploads are second's now
+            restart(first, view, scene.camera)
     finally:
         view.release()
         second.release()
