@@ -11,6 +11,7 @@ path) against two independent renderers, which upload the scene twice.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 from common import SHARED_BTFBASE, table
@@ -21,6 +22,7 @@ from btf_addon.core.dense import tabulate
 from btf_addon.core.envmap import Environment
 from btf_addon.core.imageio import read_exr
 from btf_addon.core.microgeometry import woven
+from btf_addon.core.packed import pack
 from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
 from btf_addon.gl.moderngl_device import ModernGLDevice
 from btf_addon.gl.renderer import GLSLRenderer
@@ -63,79 +65,87 @@ def rel_rmse(a, b):
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
 
 
+def scene_upload_mib(scene: Scene) -> float:
+    """What a drawer uploads for ``scene``: packed tables per BTF, vertices, the environment."""
+    btfs = {id(m.btf): m.btf for m in scene.materials}.values()
+    tables = sum(p.ints.nbytes + p.floats.nbytes for p in map(pack, btfs))
+    vertices = sum(m.world_space_corners().nbytes for m in scene.meshes)
+    return (tables + vertices + scene.environment.radiance[..., 0].size * 16) / 2**20
+
+
 def stereo(scene: Scene, eye: tuple[int, int] = (400, 400), frames: int = 3) -> str:
-    """Both eyes, K = 5 lights each per frame: one drawer with two views against two renderers.
-    Times include ``ctx.finish()``: OpenGL queues work, a frame is done when the GPU is."""
+    """Both eyes, K = 5 lights each per frame, on one OpenGL context (an XR bridge has one):
+    one drawer with two views against two renderers, which upload the scene twice. Times end
+    with ``ctx.finish()``: OpenGL queues work, a frame is done when the GPU is. (Two moderngl
+    standalone contexts in one process would need switching: GL calls go to the current one.)
+    """
     lights = scene.environment.virtual_lights(200)
     eyes = [
         Camera(look_at((x, -4.5, 1.2), (0.0, 0.0, -0.2)), fov_y_rad=np.radians(60))
         for x in (-0.032, 0.032)
     ]
     w, h = eye
-    rows = []
-
     device = ModernGLDevice()
-    t0 = time.perf_counter()
-    drawer = ProgressiveDrawer(device, scene)
-    views = [ViewAccumulation(device, w, h) for _ in eyes]
-    device.ctx.finish()
-    setup = time.perf_counter() - t0
+    ctx = device.ctx
+    warm_up = GLSLRenderer(scene, 8, 8, ctx)  # compiles (and caches) the shaders for both
+    warm_up.render(lights, per_pass=5)
+    warm_up.release()
 
-    def shared_frame(restart: bool) -> None:
-        for view, cam in zip(views, eyes, strict=True):
-            if restart:
-                view.set_lights(lights, per_pass=5)
-                drawer.restart(view, cam.clip_from_world(w / h), cam.shader_vector())
-            drawer.add_batch(view)
-            drawer.resolve(view)
-        device.ctx.finish()
+    def timed_frames(start, frame) -> tuple[float, float]:
+        """(s to set up and draw the first frame, ms per later frame)."""
+        t0 = time.perf_counter()
+        start()
+        frame()
+        ctx.finish()
+        first = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        for _ in range(frames):
+            frame()
+            ctx.finish()
+        return first, (time.perf_counter() - t0) / frames * 1000
 
-    shared_frame(restart=True)
-    t0 = time.perf_counter()
-    for _ in range(frames):
-        shared_frame(restart=False)
-    rows.append(
-        [
-            "one drawer, two views",
-            round(setup, 3),
-            round((time.perf_counter() - t0) / frames * 1000, 1),
-        ]
-    )
-    for view in views:
-        view.release()
-    drawer.release()
-    device.close()
+    shared: dict = {}
 
-    t0 = time.perf_counter()
-    renderers = [
-        GLSLRenderer(Scene(scene.meshes, scene.materials, cam, scene.environment), w, h)
-        for cam in eyes
-    ]
-    for r in renderers:
-        r.ctx.finish()
-    setup = time.perf_counter() - t0
+    def start_shared() -> None:
+        shared["drawer"] = drawer = ProgressiveDrawer(device, scene)
+        shared["views"] = [ViewAccumulation(device, w, h) for _ in eyes]
+        for view, cam in zip(shared["views"], eyes, strict=True):
+            view.set_lights(lights, per_pass=5)
+            drawer.restart(view, cam.clip_from_world(w / h), cam.shader_vector())
 
-    def separate_frame(restart: bool) -> None:
+    def shared_frame() -> None:
+        for view in shared["views"]:
+            shared["drawer"].add_batch(view)
+            shared["drawer"].resolve(view)
+
+    renderers: list[GLSLRenderer] = []
+
+    def start_separate() -> None:
+        for cam in eyes:
+            r = GLSLRenderer(replace(scene, camera=cam), w, h, ctx)
+            r.set_lights(lights, per_pass=5)
+            r.restart()
+            renderers.append(r)
+
+    def separate_frame() -> None:
         for r in renderers:
-            if restart:
-                r.set_lights(lights, per_pass=5)
-                r.restart()
             r.render_pass()
             r.drawer.resolve(r.view)
-            r.ctx.finish()
 
-    separate_frame(restart=True)
-    t0 = time.perf_counter()
-    for _ in range(frames):
-        separate_frame(restart=False)
-    rows.append(
-        ["two renderers", round(setup, 3), round((time.perf_counter() - t0) / frames * 1000, 1)]
-    )
+    mib = scene_upload_mib(scene)
+    rows = [
+        ["one drawer, two views", round(mib, 1), *timed_frames(start_shared, shared_frame)],
+        ["two renderers", round(2 * mib, 1), *timed_frames(start_separate, separate_frame)],
+    ]
+    for view in shared["views"]:
+        view.release()
+    shared["drawer"].release()
     for r in renderers:
         r.release()
-    return table(
-        [f"stereo, {w}×{h} per eye", "s to set up (uploads)", "ms per frame, both eyes (K=5)"], rows
-    )
+    device.close()
+    rows = [[name, up, round(first, 3), round(ms, 1)] for name, up, first, ms in rows]
+    headers = [f"stereo, {w}×{h} per eye", "MiB uploaded", "s to first frame", "ms per frame"]
+    return table(headers, rows)
 
 
 def main() -> str:
