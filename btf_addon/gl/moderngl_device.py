@@ -1,5 +1,13 @@
 """The drawer's device adapter (gl/device.py) on moderngl: a standalone EGL context (headless
-renders, tests, benchmarks). moderngl is imported by the context's creation only."""
+renders, tests, benchmarks). moderngl is imported by the context's creation only.
+
+moderngl sends every call to whichever OpenGL context is current, not to the one its objects
+belong to: with two contexts in a process (two renderers, or moderngl inside Blender) drawing
+would land in the wrong one. So the adapter makes its context current before its own work
+(creations, a bound target's draws, reads, releases) and leaves it current, as a new context
+is: moderngl's ``with ctx`` would not restore the previous one but leave none current, which
+a host such as Blender cannot draw (or exit) with.
+"""
 
 from __future__ import annotations
 
@@ -65,17 +73,22 @@ class ModernGLDevice:
         self.ctx = ctx if ctx is not None else create_gl_context()
         self._programs: dict[str, _Program] = {}
 
+    def _activate(self) -> None:
+        """Make this adapter's context current (moderngl's enter without its exit)."""
+        self.ctx.mglo.__enter__()
+
     def program(self, interface: ShaderInterface) -> _Program:
         if interface.name not in self._programs:
-            self._programs[interface.name] = _Program(
-                compile_program(self.ctx, interface), interface
-            )
+            self._activate()
+            gl = compile_program(self.ctx, interface)
+            self._programs[interface.name] = _Program(gl, interface)
         return self._programs[interface.name]
 
     def texture(self, array: np.ndarray, *, linear: bool = False, wrap_x: bool = False):
         array = np.ascontiguousarray(array, dtype=np.float32)
         h, w = array.shape[:2]
         channels = 1 if array.ndim == 2 else array.shape[2]
+        self._activate()
         tex = self.ctx.texture((w, h), channels, array.tobytes(), dtype="f4")
         mode = self.ctx.LINEAR if linear else self.ctx.NEAREST
         tex.filter = (mode, mode)
@@ -87,12 +100,14 @@ class ModernGLDevice:
         columns = [np.asarray(attributes[n], dtype=np.float32) for n in names]
         data = np.ascontiguousarray(np.hstack(columns))  # interleaved, in location order
         layout = " ".join(f"{c.shape[1]}f" for c in columns)
+        self._activate()
         buffer = self.ctx.buffer(data.tobytes())
         vao = self.ctx.vertex_array(program.gl, [(buffer, layout, *names)])
         return _Vertices(vao, buffer)
 
     def target(self, width: int, height: int, fmt: str, depth: bool) -> _Target:
         dtype, np_dtype = _TARGET_DTYPES[fmt]
+        self._activate()
         colour = self.ctx.texture((width, height), 4, dtype=dtype)
         depth_tex = self.ctx.depth_texture((width, height)) if depth else None
         fbo = self.ctx.framebuffer(color_attachments=[colour], depth_attachment=depth_tex)
@@ -103,12 +118,14 @@ class ModernGLDevice:
 
     @contextmanager
     def bound(self, target: _Target) -> Iterator[None]:
+        """``clear``, ``set_state`` and ``draw`` belong inside (the context is current)."""
+        self._activate()
         previous = self.ctx.fbo
         target.fbo.use()  # also sets the viewport to the whole target
         try:
             yield
         finally:
-            if _alive(previous):  # none at first in a standalone context, or released since
+            if _alive(previous):  # none at first in a standalone context, or released
                 previous.use()
 
     def clear(self, colour: tuple[float, float, float, float]) -> None:
@@ -152,14 +169,15 @@ class ModernGLDevice:
 
     def read(self, target: _Target) -> np.ndarray:
         w, h = target.colour.size
+        self._activate()
         pixels = np.frombuffer(target.colour.read(), dtype=target.dtype)
         return pixels.astype(np.float32).reshape(h, w, 4)
 
     def release(self, *objects) -> None:
+        self._activate()
         for obj in objects:
-            if obj is None:
-                continue
-            obj.release()
+            if obj is not None:
+                obj.release()
 
     def close(self) -> None:
         """Release the compiled programs, and the context if this adapter created it."""

@@ -175,3 +175,23 @@ def test_resolving_into_a_callers_framebuffer_equals_the_views_output(gl_ctx, rn
         device.release(swapchain_image)
         view.release()
         drawer.release()
+
+
+def test_renderers_on_two_contexts_draw_into_their_own(gl_ctx, rng):
+    """moderngl sends calls to the current context; the adapter makes its own current for its
+    work, so a renderer still draws the same image after a second context was created (and is
+    current), and after that context is gone. (Without it: garbage from the other context.)"""
+    from btf_addon.gl.renderer import GLSLRenderer
+
+    scene = two_material_scene(rng)
+    lights = scene.environment.virtual_lights(8, seed=1)
+    first = GLSLRenderer(scene, W, H, gl_ctx)
+    before = first.render(lights)
+    second = GLSLRenderer(replace(scene, camera=eye(0.6)), 32, 24)  # its own context, current
+    try:
+        assert second.render(lights).max() > 0.1
+        np.testing.assert_array_equal(first.render(lights), before)
+    finally:
+        second.release()
+    np.testing.assert_array_equal(first.render(lights), before)
+    first.release()  # makes the session context current again: later tests use it directly
