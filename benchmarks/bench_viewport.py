@@ -4,12 +4,14 @@
 Scene: a 96×48 UV sphere with the measured alu BTF (or a tabulated woven preset where the shared
 data is absent) on a ground plane with the wallpaper BTF, forest studiolight. Frame = one
 accumulation pass of K lights plus the resolve. Error: relative RMSE against the same view lit by
-1024 virtual lights (a converged image).
+1024 virtual lights (a converged image). Stereo: two eyes as two views of one drawer (the VR
+path) against two independent renderers, which upload the scene twice.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 from common import SHARED_BTFBASE, table
@@ -20,6 +22,9 @@ from btf_addon.core.dense import tabulate
 from btf_addon.core.envmap import Environment
 from btf_addon.core.imageio import read_exr
 from btf_addon.core.microgeometry import woven
+from btf_addon.core.packed import pack
+from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
+from btf_addon.gl.moderngl_device import ModernGLDevice
 from btf_addon.gl.renderer import GLSLRenderer
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
@@ -58,6 +63,87 @@ def frame_time(renderer: GLSLRenderer, frames: int) -> float:
 
 def rel_rmse(a, b):
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def scene_upload_mib(scene: Scene) -> float:
+    """What a drawer uploads for ``scene``: packed tables per BTF, vertices, the environment."""
+    btfs = {id(m.btf): m.btf for m in scene.materials}.values()
+    tables = sum(p.ints.nbytes + p.floats.nbytes for p in map(pack, btfs))
+    vertices = sum(m.world_space_corners().nbytes for m in scene.meshes)
+    return (tables + vertices + scene.environment.radiance[..., 0].size * 16) / 2**20
+
+
+def stereo(scene: Scene, eye: tuple[int, int] = (400, 400), frames: int = 4) -> str:
+    """Both eyes, K = 5 lights each per frame, on one OpenGL context (an XR bridge has one):
+    one drawer with two views against two renderers, which upload the scene twice. Frames of
+    the two set-ups alternate and the best is kept, so that a load change on this shared
+    machine does not favour one. Times end with ``ctx.finish()``: OpenGL queues work, a frame
+    is done when the GPU is. (Two moderngl standalone contexts in one process would need
+    switching: GL calls go to the current one.)
+    """
+    lights = scene.environment.virtual_lights(200)
+    eyes = [
+        Camera(look_at((x, -4.5, 1.2), (0.0, 0.0, -0.2)), fov_y_rad=np.radians(60))
+        for x in (-0.032, 0.032)
+    ]
+    w, h = eye
+    device = ModernGLDevice()
+    ctx = device.ctx
+    warm_up = GLSLRenderer(scene, 8, 8, ctx)  # compiles (and caches) the shaders for both
+    warm_up.render(lights, per_pass=5)
+    warm_up.release()
+
+    def timed(fn) -> float:
+        t0 = time.perf_counter()
+        fn()
+        ctx.finish()
+        return time.perf_counter() - t0
+
+    drawer: ProgressiveDrawer | None = None
+    views: list[ViewAccumulation] = []
+    renderers: list[GLSLRenderer] = []
+
+    def start_shared() -> None:
+        nonlocal drawer
+        drawer = ProgressiveDrawer(device, scene)
+        for cam in eyes:
+            views.append(ViewAccumulation(device, w, h))
+            views[-1].set_lights(lights, per_pass=5)
+            drawer.restart(views[-1], cam.clip_from_world(w / h), cam.shader_vector())
+
+    def shared_frame() -> None:
+        for view in views:
+            drawer.add_batch(view)
+            drawer.resolve(view)
+
+    def start_separate() -> None:
+        for cam in eyes:
+            renderers.append(GLSLRenderer(replace(scene, camera=cam), w, h, ctx))
+            renderers[-1].set_lights(lights, per_pass=5)
+            renderers[-1].restart()
+
+    def separate_frame() -> None:
+        for r in renderers:
+            r.render_pass()
+            r.drawer.resolve(r.view)
+
+    setup = [timed(start_shared), timed(start_separate)]
+    best = [float("inf")] * 2
+    for _ in range(frames):
+        best = [min(b, timed(f)) for b, f in zip(best, (shared_frame, separate_frame), strict=True)]
+    for view in views:
+        view.release()
+    drawer.release()
+    for r in renderers:
+        r.release()
+    device.close()
+    mib = scene_upload_mib(scene)
+    rows = [
+        ["one drawer, two views", round(mib, 1), round(setup[0], 3), round(best[0] * 1000, 1)],
+        ["two renderers", round(2 * mib, 1), round(setup[1], 3), round(best[1] * 1000, 1)],
+    ]
+    headers = [f"stereo, {w}×{h} per eye", "MiB uploaded", "s to set up", "best ms per frame"]
+    return table(headers, rows)
 
 
 def main() -> str:
@@ -113,6 +199,7 @@ def main() -> str:
         )
         rr.release()
     out.append(table(["dense BTF texels (81×81 dirs)", "table KiB", "ms per frame (K=5)"], rows))
+    out.append(stereo(scene))
     return "\n\n".join(out)
 
 

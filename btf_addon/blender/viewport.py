@@ -12,28 +12,31 @@ import numpy as np
 from gpu_extras.presets import draw_texture_2d
 
 from ..core.errors import BTFError
+from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.interface import ShaderCompileError
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
 from .export import ExportCache, changed_ids, export_scene
-from .gpu_draw import SceneDrawer
+from .gpu_draw import BlenderGPUDevice
 
 
 class ViewportState:
+    """One 3D view of the engine: the scene's drawer (replaced, reusing uploads, when the scene
+    changes) and the view's accumulation (replaced when the region is resized)."""
+
     def __init__(self):
-        self.drawer: SceneDrawer | None = None
+        self.device = BlenderGPUDevice()
+        self.drawer: ProgressiveDrawer | None = None
+        self.view: ViewAccumulation | None = None
         self.cache = ExportCache()
         self.scene_dirty = True
         self.view_key: tuple | None = None
-        self.size: tuple[int, int] = (0, 0)
-        self.background = self.accumulation = self.output = None
         self.error = ""
 
     def free_buffers(self) -> None:
-        for offscreen in (self.background, self.accumulation, self.output):
-            if offscreen is not None:
-                offscreen.free()
-        self.background = self.accumulation = self.output = None
+        if self.view is not None:
+            self.view.release()
+        self.view = None
 
 
 def _state(engine) -> ViewportState:
@@ -44,7 +47,7 @@ def _state(engine) -> ViewportState:
 
 def view_update(engine, context, depsgraph) -> None:
     """Record what changed: the next draw re-exports and re-uploads only that (ExportCache,
-    SceneDrawer(previous=...)); anything else (transforms, settings, added objects) is cheap
+    ProgressiveDrawer(previous=...)); anything else (transforms, settings, added objects) is cheap
     and handled by the re-export, which also restarts the accumulation."""
     state = _state(engine)
     objects, materials, world = changed_ids(depsgraph)
@@ -62,7 +65,7 @@ def view_draw(engine, context, depsgraph) -> None:
     if state.scene_dirty or state.drawer is None:
         try:
             scene_data = export_scene(depsgraph, *size, cache=state.cache, viewport=True)
-            state.drawer = SceneDrawer(scene_data, previous=state.drawer)
+            state.drawer = ProgressiveDrawer(state.device, scene_data, previous=state.drawer)
             state.error = ""
         except (BTFError, ShaderCompileError) as exc:
             state.drawer, state.error = None, str(exc)
@@ -86,24 +89,22 @@ def view_draw(engine, context, depsgraph) -> None:
         settings.progressive,
         settings.seed,
     )
-    if size != state.size:
+    if state.view is None or state.view.size != size:
         state.free_buffers()
-        state.size = size
-        state.background = gpu.types.GPUOffScreen(*size, format="RGBA32F")
-        state.accumulation = gpu.types.GPUOffScreen(*size, format="RGBA32F")
-        state.output = gpu.types.GPUOffScreen(*size, format="RGBA16F")
+        # Half floats are enough for display; the accumulation itself is 32-bit.
+        state.view = ViewAccumulation(state.device, *size, output_format="RGBA16F")
+    view = state.view
     if key != state.view_key:
         per_pass = settings.lights_per_redraw if settings.progressive else settings.lights_total
-        drawer.set_lights(frame_lights(settings, drawer.scene, world_from_view[:3, 2]), per_pass)
-        drawer.restart(state.background, state.accumulation, clip_from_world, camera, size)
+        view.set_lights(frame_lights(settings, drawer.scene, world_from_view[:3, 2]), per_pass)
+        drawer.restart(view, clip_from_world, camera)
         state.view_key = key
-    drawer.add_batch(state.accumulation, clip_from_world, camera)
-    with state.output.bind():
-        drawer.draw_resolve(state.accumulation.texture_color, state.background.texture_color)
+    drawer.add_batch(view)
+    drawer.resolve(view)
     gpu.state.blend_set("ALPHA_PREMULT")
     engine.bind_display_space_shader(scene)
-    draw_texture_2d(state.output.texture_color, (0, 0), *size)
+    draw_texture_2d(state.device.target_texture(view.output), (0, 0), *size)
     engine.unbind_display_space_shader()
     gpu.state.blend_set("NONE")
-    if not drawer.state.converged:
+    if not view.state.converged:
         engine.tag_redraw()

@@ -3,7 +3,8 @@
 The viewport adds K lights per redraw until all N are in; any change to what is drawn (view,
 objects, materials, World, settings) restarts from zero. Because every prefix of the light list
 is a stratified estimate (core/envmap.py), the image after k lights is already a fair result:
-the resolve divides the accumulated sum by k.
+the resolve divides the accumulated sum by k. Each view holds its own state (gl/drawer.py
+``ViewAccumulation``): two eyes over one scene progress independently.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ class ProgressiveState:
     total: int  # N
     per_pass: int  # K
     done: int = 0
-    generation: int = 0  # bumps on every restart: lets a drawer drop stale buffers
+    generation: int = 0  # bumps on every restart: tells a caller its image was started over
 
     def __post_init__(self) -> None:
         if self.total < 1 or self.per_pass < 1:

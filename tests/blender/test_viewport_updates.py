@@ -34,7 +34,7 @@ def test_only_changed_objects_are_exported_and_uploaded(bpy_module, fresh_scene)
     cache = export.ExportCache()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     first = export.export_scene(depsgraph, 32, 32, cache)
-    drawer = gpu_draw.SceneDrawer(first)
+    drawer = gpu_draw.scene_drawer(first)
     before = arrays_by_object(first)
 
     # A transform only: nothing re-exported, A's matrix updated.
@@ -64,9 +64,14 @@ def test_only_changed_objects_are_exported_and_uploaded(bpy_module, fresh_scene)
     edited = export.export_scene(bpy.context.evaluated_depsgraph_get(), 32, 32, cache)
     final = arrays_by_object(edited)
     assert final["A"][0] is not before["A"][0] and final["B"][0] is before["B"][0]
-    redrawn = gpu_draw.SceneDrawer(edited, previous=drawer)
+    uploaded = [vertices for vertices, _ in drawer.batches]
+    env_tex = drawer.env_tex
+    redrawn = gpu_draw.scene_drawer(edited, previous=drawer)
     assert redrawn.uploads == {"tables": 0, "meshes": 1}  # B's buffer and both tables reused
-    assert redrawn.env_tex is drawer.env_tex
+    # The same GPU objects, not new uploads of equal data: one of the two batches is B's.
+    kept = [v for v, _ in redrawn.batches if any(v is u for u in uploaded)]
+    assert len(kept) == 1
+    assert redrawn.env_tex is env_tex and redrawn.device is drawer.device
 
 
 def test_material_change_invalidates_its_objects(bpy_module, fresh_scene):

@@ -1,11 +1,10 @@
-"""Tangent generation, camera projection and progressive state: bpy-free render logic."""
+"""Tangent generation and camera projection: the plain-array scene."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from btf_addon.render.progressive import ProgressiveState
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, look_at
 from btf_addon.scene.tangents import corner_tangents
@@ -49,19 +48,3 @@ def test_projection_maps_the_view_centre_to_the_image_centre(perspective):
     clip = cam.projection(16 / 9) @ np.linalg.inv(cam.world_from_camera) @ [0.0, 0.0, 0.5, 1.0]
     np.testing.assert_allclose(clip[:2] / clip[3], 0.0, atol=1e-9)
     assert -1 < clip[2] / clip[3] < 1
-
-
-def test_progressive_state_batches_and_restarts():
-    s = ProgressiveState(total=10, per_pass=4)
-    batches = []
-    while not s.converged:
-        first, count = s.next_batch()
-        batches.append((first, count))
-        s.advance(count)
-    assert batches == [(0, 4), (4, 4), (8, 2)]
-    assert s.next_batch() == (10, 0)
-    gen = s.generation
-    s.restart()
-    assert s.done == 0 and s.generation == gen + 1
-    with pytest.raises(ValueError):
-        ProgressiveState(total=0, per_pass=1)

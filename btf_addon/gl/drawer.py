@@ -1,0 +1,280 @@
+"""The one progressive drawer: a plain-array scene (scene/scene.py) drawn with the GLSL shaders
+over a device adapter (gl/device.py), for any number of views.
+
+Per view and per restart: the World into the view's background target, a depth pre-pass into
+its accumulation target; then per call, a batch of K virtual lights added on the visible
+surface (depth test EQUAL, additive blending); the resolve divides the sum by the lights added
+so far where a surface was drawn and shows the World elsewhere (shaders/resolve_frag.glsl).
+
+The drawer holds what belongs to the scene (programs, BTF tables, vertex buffers, the World,
+Blender's lights); a ``ViewAccumulation`` holds what belongs to one view (its targets, its
+virtual lights, its progress, the camera its accumulation was started with). Two eyes are two
+views of one drawer.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..core.envmap import VirtualLights
+from ..core.packed import pack
+from ..render.progressive import ProgressiveState
+from ..scene.lights import pack_lights
+from ..scene.scene import Mesh, Scene
+from .device import ADD_LIGHTS, DEFAULT_STATE, DEPTH_PREPASS, Device, DrawState
+from .interface import BACKGROUND_SHADER, RESOLVE_SHADER, SURFACE_SHADER
+
+MAX_SIZE = 16384  # pixels per side: beyond any GPU's texture limit
+# Two triangles covering clip space: one fragment per pixel of the bound target.
+QUAD = np.array([(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)], dtype=np.float32)
+
+
+def check_size(width: int, height: int) -> None:
+    if width < 1 or height < 1 or max(width, height) > MAX_SIZE:
+        raise ValueError(f"resolution {width}×{height} is outside 1…{MAX_SIZE}")
+
+
+class ViewAccumulation:
+    """One view's progressive image; the caller owns it and may keep it across drawers.
+
+    Targets (device objects, ``width`` × ``height``): ``background`` (RGBA32F, the World),
+    ``accumulation`` (RGBA32F with depth: the sum of the light batches, alpha = batches drawn),
+    ``output`` (``output_format``: the resolved image). ``state`` counts the lights added;
+    ``lights`` is the virtual-light texture; ``clip_from_world`` ((4, 4) float64) and ``camera``
+    ((4,) float64, shaders/surface_frag.glsl) are those of the running accumulation, fixed by
+    ``ProgressiveDrawer.restart``: every batch must repeat the pre-pass's exact transform for the
+    depth test EQUAL to pass.
+    """
+
+    def __init__(self, device: Device, width: int, height: int, output_format: str = "RGBA32F"):
+        check_size(width, height)
+        self.device = device
+        self.width, self.height = width, height
+        self.background = device.target(width, height, "RGBA32F", depth=False)
+        self.accumulation = device.target(width, height, "RGBA32F", depth=True)
+        self.output = device.target(width, height, output_format, depth=False)
+        self.state: ProgressiveState | None = None
+        self.lights: Any = None
+        self.clip_from_world: np.ndarray | None = None
+        self.camera: np.ndarray | None = None
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.width, self.height
+
+    def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
+        """Light this view with ``lights``, ``per_pass`` of them per batch. Ends the running
+        accumulation: restart before the next batch."""
+        n = len(lights.pdf)
+        state = ProgressiveState(total=n, per_pass=per_pass)  # checks the counts first
+        texture = self.device.texture(lights.packed().reshape(1, 2 * n, 4))  # 2 texels a light
+        self.device.release(self.lights)
+        self.lights, self.state = texture, state
+        self.clip_from_world = self.camera = None
+
+    def read(self) -> np.ndarray:
+        """(height, width, 4) float32 resolved image (``ProgressiveDrawer.resolve`` first), row
+        0 at the bottom."""
+        return self.device.read(self.output)
+
+    def release(self) -> None:
+        self.device.release(self.background, self.accumulation, self.output, self.lights)
+        self.background = self.accumulation = self.output = self.lights = None
+
+
+class ProgressiveDrawer:
+    """GPU resources of one scene, drawn into views through ``device``.
+
+    Built from a ``previous`` drawer (same device), it keeps every upload whose source did not
+    change: BTF tables per BTF object (the exporter caches BTFs by file and fallback colour),
+    vertex buffers per mesh (same object-space arrays and world matrix), the environment per
+    Environment object. So a viewport edit re-uploads only what the depsgraph reported as
+    changed. ``previous`` hands its uploads over: what this drawer does not reuse is released,
+    and ``previous`` must not draw again.
+    """
+
+    def __init__(self, device: Device, scene: Scene, previous: ProgressiveDrawer | None = None):
+        if previous is not None and previous.released:
+            raise RuntimeError("the previous drawer was released or already handed over")
+        self.device, self.scene = device, scene
+        self.released = False
+        self.surface = device.program(SURFACE_SHADER)
+        self.background_program = device.program(BACKGROUND_SHADER)
+        self.resolve_program = device.program(RESOLVE_SHADER)
+        old_tables = previous._table_uploads if previous else {}
+        old_batches = previous._batch_uploads if previous else {}
+        # Keyed by id() of the source, with the source kept alive so an id cannot be reused.
+        self._table_uploads: dict[int, tuple[object, tuple[Any, Any]]] = {}
+        self._batch_uploads: dict[tuple, tuple[object, Any]] = {}
+        self.tables: list[tuple[Any, Any]] = []  # per material: (int table, float table)
+        for material in scene.materials:
+            key = id(material.btf)
+            if key not in self._table_uploads:
+                self._table_uploads[key] = old_tables.get(key) or (
+                    material.btf,
+                    self._upload_tables(material.btf),
+                )
+            self.tables.append(self._table_uploads[key][1])
+        self.batches: list[tuple[Any, int]] = []  # (vertices, material index), empty meshes out
+        for mesh in scene.meshes:
+            key = (id(mesh.positions), np.asarray(mesh.world_from_object).tobytes())
+            if key not in self._batch_uploads:
+                self._batch_uploads[key] = old_batches.get(key) or (
+                    mesh.positions,
+                    self._upload_mesh(mesh),
+                )
+            vertices = self._batch_uploads[key][1]
+            if vertices is not None:
+                self.batches.append((vertices, mesh.material))
+        env = scene.environment
+        if previous is not None and previous.scene.environment is env:
+            self.env_tex = previous.env_tex
+        else:
+            rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
+            # Rows go up top first: texture coordinate t = 0 is the first row uploaded, and the
+            # shader reads t = 0 as the zenith (shaders/env_lib.glsl). Bilinear, wrapping
+            # around the horizontal seam, as Blender's Environment Texture.
+            self.env_tex = device.texture(rgba, linear=True, wrap_x=True)
+        self.uploads = {
+            "tables": len(set(self._table_uploads) - set(old_tables)),
+            "meshes": len(set(self._batch_uploads) - set(old_batches)),
+        }
+        if previous is not None:  # scene-independent: handed over as they are
+            self.quad_background, self.quad_resolve = (
+                previous.quad_background,
+                previous.quad_resolve,
+            )
+            self.no_lights = previous.no_lights
+        else:
+            self.quad_background = device.vertices(self.background_program, {"pos": QUAD})
+            self.quad_resolve = device.vertices(self.resolve_program, {"pos": QUAD})
+            # Bound to the lights sampler before a view has lights (a depth pre-pass reads none).
+            self.no_lights = device.texture(np.zeros((1, 2, 4), dtype=np.float32))
+        # Blender's lights: five RGBA texels each (scene/lights.py), drawn without shadows.
+        self.scene_lights_tex = device.texture(pack_lights(scene.lights).reshape(1, -1, 4))
+        if previous is not None:
+            previous._hand_over(self)
+
+    # --- uploads ---------------------------------------------------------------------------
+    def _upload_tables(self, btf) -> tuple[Any, Any]:
+        packed = pack(btf)
+        return self.device.texture(packed.ints), self.device.texture(packed.floats)
+
+    def _upload_mesh(self, mesh: Mesh) -> Any:
+        data = mesh.world_space_corners()  # (3 × triangles, 12) float32, world space
+        if len(data) == 0:
+            return None
+        attributes = {"pos": data[:, 0:3], "nor": data[:, 3:6], "uv": data[:, 6:8]}
+        attributes["tan"] = data[:, 8:12]
+        return self.device.vertices(self.surface, attributes)
+
+    def _owned(self) -> list[Any]:
+        objects = [t for _, pair in self._table_uploads.values() for t in pair]
+        objects += [v for _, v in self._batch_uploads.values()]
+        objects += [self.env_tex, self.quad_background, self.quad_resolve, self.no_lights]
+        return [*objects, self.scene_lights_tex]
+
+    def _hand_over(self, successor: ProgressiveDrawer) -> None:
+        kept = {id(o) for o in successor._owned()}
+        self.device.release(*(o for o in self._owned() if id(o) not in kept))
+        self._forget()
+
+    def release(self) -> None:
+        """Free the scene's uploads (views are released by their owner)."""
+        self.device.release(*self._owned())
+        self._forget()
+
+    def _forget(self) -> None:
+        self._table_uploads, self._batch_uploads, self.tables, self.batches = {}, {}, [], []
+        self.released = True
+
+    # --- drawing ---------------------------------------------------------------------------
+    def restart(self, view: ViewAccumulation, clip_from_world: np.ndarray, camera) -> None:
+        """Start ``view``'s accumulation from ``clip_from_world`` ((4, 4)) and ``camera`` ((4,):
+        position and 1, or direction towards the viewer and 0): the World into its background,
+        its accumulation cleared and given the depth the light batches test EQUAL against."""
+        if self.released:
+            raise RuntimeError("this drawer was released or handed over to a newer one")
+        view.clip_from_world = np.array(clip_from_world, dtype=np.float64)
+        view.camera = np.array(camera, dtype=np.float64)
+        device = self.device
+        env = self.scene.environment
+        with device.bound(view.background):
+            device.set_state(DEFAULT_STATE)
+            device.draw(
+                self.background_program,
+                self.quad_background,
+                {
+                    "world_from_clip": np.linalg.inv(view.clip_from_world),
+                    "viewport_size": view.size,
+                    "env_params": (env.rotation_z_rad, 1.0),
+                },
+                {"environment": self.env_tex},
+            )
+        with device.bound(view.accumulation):
+            device.clear((0.0, 0.0, 0.0, 0.0))
+            self._draw_surfaces(view, 0, 0, DEPTH_PREPASS)
+        if view.state is not None:
+            view.state.restart()
+
+    def add_batch(self, view: ViewAccumulation) -> int:
+        """Add ``view``'s next batch of lights; how many were added (0 once converged)."""
+        if view.state is None:
+            raise RuntimeError("set the view's lights first")
+        if view.clip_from_world is None:
+            raise RuntimeError("restart the view first")
+        first, count = view.state.next_batch()
+        if count:
+            with self.device.bound(view.accumulation):
+                self._draw_surfaces(view, first, count, ADD_LIGHTS)
+            view.state.advance(count)
+        return count
+
+    def resolve(self, view: ViewAccumulation) -> None:
+        """Draw ``view``'s image so far into its output target."""
+        with self.device.bound(view.output):
+            self.draw_resolved(view)
+
+    def draw_resolved(self, view: ViewAccumulation) -> None:
+        """Draw ``view``'s image so far into the bound framebuffer, which must have the view's
+        size (pixels are fetched at the fragment's own coordinates): an eye's framebuffer in
+        a draw callback, a swapchain image."""
+        device = self.device
+        done = view.state.done if view.state is not None else 0
+        device.set_state(DEFAULT_STATE)
+        device.draw(
+            self.resolve_program,
+            self.quad_resolve,
+            {"resolve_params": (max(done, 1), 0.0, 0.0, 0.0)},
+            {
+                "accumulation": device.target_texture(view.accumulation),
+                "background": device.target_texture(view.background),
+            },
+        )
+
+    def _draw_surfaces(self, view: ViewAccumulation, first: int, count: int, state: DrawState):
+        device = self.device
+        lights = view.lights if view.lights is not None else self.no_lights
+        device.set_state(state)
+        try:
+            for vertices, material_index in self.batches:
+                material = self.scene.materials[material_index]
+                ints, floats = self.tables[material_index]
+                m = material.uv_transform()
+                uniforms = {
+                    "clip_from_world": view.clip_from_world,
+                    "camera": view.camera,
+                    "uv_transform": (m[0, 0], m[1, 0], m[0, 1], m[1, 1]),  # mat2, column-major
+                    "light_range": (first, count, 2.0**material.exposure, len(self.scene.lights)),
+                }
+                samplers = {
+                    "btf_int_tables": ints,
+                    "btf_float_tables": floats,
+                    "lights": lights,
+                    "scene_lights": self.scene_lights_tex,
+                }
+                device.draw(self.surface, vertices, uniforms, samplers)
+        finally:
+            device.set_state(DEFAULT_STATE)
