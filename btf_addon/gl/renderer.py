@@ -1,8 +1,8 @@
 """A standalone GLSL renderer (moderngl, offscreen) for plain-array scenes (scene/scene.py).
 
 The progressive drawer (gl/drawer.py) on the moderngl adapter with one view, seen from the
-scene's camera: the same shaders and steps as Blender's viewport. Used for headless renders
-(``render --engine glsl``), tests and benchmarks.
+scene's camera: the same shaders and steps as Blender's viewport. Used headless
+(tests, benchmarks, and the stereo work: a caller may pass its own context).
 """
 
 from __future__ import annotations

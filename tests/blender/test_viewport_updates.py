@@ -83,7 +83,7 @@ def test_material_change_invalidates_its_objects(bpy_module, fresh_scene):
     cache = export.ExportCache()
     export.export_scene(bpy.context.evaluated_depsgraph_get(), 32, 32, cache)
     cache.invalidate(materials={"Red"})
-    names = {key[0] for key in cache.meshes}
+    names = {key.object_name for key in cache.meshes}
     assert "A" not in names and "B" in names
     cache.invalidate(world=True)
     assert cache.environment is None
