@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 
 MODULES = (
+    "wiimote_preferences",  # before preferences: BTF_AddonPreferences.wiimote points at it
     "preferences",
     "properties",
     "render_settings",
@@ -16,6 +17,8 @@ MODULES = (
     "import_btf",
     "engine",
     "ui",
+    "wiimote_overlay",
+    "wiimote_operator",
 )
 
 

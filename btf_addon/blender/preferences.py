@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import EnumProperty
+from bpy.props import EnumProperty, PointerProperty
 from bpy.types import AddonPreferences
 
 from ..cl.devices import best_device_index, list_devices
+from . import wiimote_preferences
 from .addon import ADDON_PACKAGE
 
 #: The ``opencl_device`` identifier of "best GPU, else the CPU".
@@ -75,6 +76,7 @@ class BTF_AddonPreferences(AddonPreferences):
         description="Device for final renders; Automatic picks the best GPU, else the CPU",
         items=device_items,
     )
+    wiimote: PointerProperty(type=wiimote_preferences.BTFWiimotePreferences, name="Wiimote")
 
     def draw(self, context) -> None:
         layout = self.layout
@@ -84,6 +86,7 @@ class BTF_AddonPreferences(AddonPreferences):
             box = layout.box()
             box.label(text=f"OpenCL unavailable: {_device_error}", icon="ERROR")
             box.label(text="Install a GPU driver, or: pip install pocl-binary-distribution")
+        wiimote_preferences.draw(layout, self.wiimote)
 
 
 classes = (BTF_AddonPreferences,)

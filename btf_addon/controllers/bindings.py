@@ -122,3 +122,23 @@ def default_bindings() -> tuple[Binding, ...]:
         Binding(Action.ZOOM_OUT, "Z", hold, rate=1.0),
         Binding(Action.RESET_VIEW, "A", press, ("HOME",)),
     )
+
+
+def help_lines(bindings: tuple[Binding, ...]) -> list[tuple[str, str]]:
+    """(inputs, what they do) per binding, for the help overlay and the user guide:
+    ``("B + Left (hold)", "Rotate environment −45 °/s")``."""
+    from .actions import ACTION_LABELS, CONTINUOUS
+
+    lines = []
+    for b in bindings:
+        label, unit = ACTION_LABELS[b.action]
+        axis = f" {b.axis.lower()}" if b.axis else ""
+        if b.action in CONTINUOUS:
+            rate = f"{b.rate:g}".replace("-", "−")
+            text = f"{label}{axis} {rate} {unit}"
+        elif unit and b.rate != 1.0:
+            text = f"{label} {b.rate:.3g} {unit}"
+        else:
+            text = label
+        lines.append((b.describe(), text))
+    return lines

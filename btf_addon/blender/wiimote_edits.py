@@ -1,0 +1,278 @@
+"""Controller actions → scene edits (bpy). One function per action; the session
+(``wiimote_session.py``) calls ``apply_edit`` for every Edit of the step function.
+
+Targets, in the words of issue 13:
+- materials: the active object's active slot steps through the file's BTF materials (those with
+  ``material.btf.enabled``, sorted by name); with a single BTF material, its ``btf.source``
+  steps through the BTF sources beside it (folders and ``.btfm`` files of the same parent);
+- objects: the active object steps through the view layer's mesh objects, sorted by name;
+- environment: the Z rotation of the World's Mapping node in front of its Environment Texture
+  (the node ``export/world.py`` reads; a TEXTURE-type Mapping turns the other way);
+- exposure: ``btf.exposure`` of the active object's BTF material;
+- lights per frame and progressive: ``scene.btf_render``;
+- orbit and zoom: the 3D viewport's view when one is given (``region_3d``), else the scene
+  camera around the active object (or the origin); reset view restores what was saved at start.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import bpy
+from mathutils import Matrix, Quaternion, Vector
+
+from ..controllers.actions import Action, Edit
+
+
+class EditSkipped(Exception):  # noqa: N818 - a message for the status line, not a failure
+    """The action has nothing to act on here (no BTF material, no World...): say so, go on."""
+
+
+@dataclass
+class ViewState:
+    """What RESET_VIEW restores: the camera's matrix and/or the viewport's view."""
+
+    camera_matrix: Matrix | None = None
+    view: tuple | None = None  # (view_location, view_rotation, view_distance)
+
+
+@dataclass
+class EditContext:
+    scene: object
+    view_layer: object
+    region_3d: object | None = None  # a SpaceView3D's RegionView3D, None headless
+    saved_view: ViewState = field(default_factory=ViewState)
+    help_visible: bool = False
+    screenshots: list[str] = field(default_factory=list)
+
+    def save_view(self) -> None:
+        camera = self.scene.camera
+        self.saved_view = ViewState(
+            camera.matrix_world.copy() if camera else None,
+            (
+                self.region_3d.view_location.copy(),
+                self.region_3d.view_rotation.copy(),
+                self.region_3d.view_distance,
+            )
+            if self.region_3d
+            else None,
+        )
+
+
+# ------------------------------------------------------------------ materials
+def btf_materials() -> list:
+    return sorted((m for m in bpy.data.materials if m.btf.enabled), key=lambda m: m.name)
+
+
+def _active_object(ctx: EditContext):
+    obj = ctx.view_layer.objects.active
+    if obj is None:
+        raise EditSkipped("no active object")
+    return obj
+
+
+def sibling_sources(source: str) -> list[str]:
+    """BTF sources beside ``source`` (folders and .btfm files in its parent), sorted."""
+    path = Path(bpy.path.abspath(source))
+    parent = path.parent
+    if not parent.is_dir():
+        return []
+    found = [p for p in parent.iterdir() if p.is_dir() or p.suffix.lower() == ".btfm"]
+    return sorted(str(p) for p in found)
+
+
+def step_material(ctx: EditContext, step: int) -> str:
+    obj = _active_object(ctx)
+    if not obj.material_slots:
+        raise EditSkipped(f"{obj.name!r} has no material slots")
+    slot = obj.material_slots[obj.active_material_index]
+    materials = btf_materials()
+    if len(materials) >= 2:
+        current = materials.index(slot.material) if slot.material in materials else -1
+        new = materials[(current + step) % len(materials)]
+        slot.material = new
+        return f"material {new.name}"
+    material = slot.material
+    if material is None or not material.btf.enabled or not material.btf.source:
+        raise EditSkipped("no other BTF material to switch to")
+    sources = sibling_sources(material.btf.source)
+    here = str(Path(bpy.path.abspath(material.btf.source)))
+    if len(sources) < 2 or here not in sources:
+        raise EditSkipped("no other BTF material or source beside this one")
+    material.btf.source = sources[(sources.index(here) + step) % len(sources)]
+    return f"source {Path(material.btf.source).name}"
+
+
+def active_btf_material(ctx: EditContext):
+    obj = _active_object(ctx)
+    mat = obj.active_material
+    if mat is not None and mat.btf.enabled:
+        return mat
+    for slot in obj.material_slots:
+        if slot.material is not None and slot.material.btf.enabled:
+            return slot.material
+    raise EditSkipped(f"{obj.name!r} has no BTF material")
+
+
+# -------------------------------------------------------------------- objects
+def next_object(ctx: EditContext) -> str:
+    meshes = sorted((o for o in ctx.view_layer.objects if o.type == "MESH"), key=lambda o: o.name)
+    if not meshes:
+        raise EditSkipped("no mesh objects")
+    active = ctx.view_layer.objects.active
+    new = meshes[(meshes.index(active) + 1) % len(meshes)] if active in meshes else meshes[0]
+    for o in meshes:
+        o.select_set(o == new)
+    ctx.view_layer.objects.active = new
+    return f"object {new.name}"
+
+
+def _rotation_about(pivot: Vector, angle_rad: float, axis: Vector) -> Matrix:
+    return (
+        Matrix.Translation(pivot) @ Matrix.Rotation(angle_rad, 4, axis) @ Matrix.Translation(-pivot)
+    )
+
+
+def rotate_object(ctx: EditContext, degrees: float, axis: str) -> None:
+    obj = _active_object(ctx)
+    world_axis = Vector((0.0, 0.0, 1.0)) if axis != "X" else Vector((1.0, 0.0, 0.0))
+    pivot = obj.matrix_world.translation.copy()
+    obj.matrix_world = _rotation_about(pivot, math.radians(degrees), world_axis) @ obj.matrix_world
+
+
+# ---------------------------------------------------------------- environment
+def world_mapping(scene):
+    """The World's Mapping node feeding its Environment Texture; EditSkipped when missing."""
+    world = scene.world
+    if world is None or world.node_tree is None:
+        raise EditSkipped("the scene has no World nodes to rotate")
+    for node in world.node_tree.nodes:
+        if node.bl_idname == "ShaderNodeTexEnvironment":
+            vector = node.inputs["Vector"]
+            if vector.is_linked and vector.links[0].from_node.bl_idname == "ShaderNodeMapping":
+                return vector.links[0].from_node
+            raise EditSkipped("the Environment Texture has no Mapping node in front of it")
+    raise EditSkipped("the World has no Environment Texture")
+
+
+def rotate_environment(ctx: EditContext, degrees: float) -> None:
+    mapping = world_mapping(ctx.scene)
+    sign = -1.0 if mapping.vector_type == "TEXTURE" else 1.0  # TEXTURE is the inverse map
+    rotation = mapping.inputs["Rotation"]
+    x, y, z = rotation.default_value
+    rotation.default_value = (x, y, z + sign * math.radians(degrees))
+
+
+# ------------------------------------------------------------------- view
+def _pivot(ctx: EditContext) -> Vector:
+    obj = ctx.view_layer.objects.active
+    return obj.matrix_world.translation.copy() if obj is not None else Vector()
+
+
+def orbit(ctx: EditContext, degrees: float, axis: str) -> None:
+    angle = math.radians(degrees)
+    if ctx.region_3d is not None:
+        r3d = ctx.region_3d
+        if axis == "YAW":
+            # The eye sits at view_rotation @ (0, 0, distance): turning it by +angle about Z
+            # moves the eye to its right, as the camera below.
+            r3d.view_rotation = Quaternion((0.0, 0.0, 1.0), angle) @ r3d.view_rotation
+        else:
+            right = r3d.view_rotation @ Vector((1.0, 0.0, 0.0))
+            r3d.view_rotation = Quaternion(right, -angle) @ r3d.view_rotation  # up: eye up
+        return
+    camera = ctx.scene.camera
+    if camera is None:
+        raise EditSkipped("no scene camera to orbit")
+    if axis == "YAW":
+        world_axis = Vector((0.0, 0.0, 1.0))  # +angle: the camera moves to its right
+    else:  # about the camera's right axis; +angle (stick up) lifts the camera
+        world_axis = camera.matrix_world.to_3x3() @ Vector((1.0, 0.0, 0.0))
+        angle = -angle
+    camera.matrix_world = _rotation_about(_pivot(ctx), angle, world_axis) @ camera.matrix_world
+
+
+def zoom(ctx: EditContext, stops: float) -> None:
+    """``stops`` > 0 zooms in: the distance to the pivot is divided by 2**stops."""
+    factor = 2.0 ** (-stops)
+    if ctx.region_3d is not None:
+        ctx.region_3d.view_distance = max(1e-3, ctx.region_3d.view_distance * factor)
+        return
+    camera = ctx.scene.camera
+    if camera is None:
+        raise EditSkipped("no scene camera to zoom")
+    pivot = _pivot(ctx)
+    offset = camera.matrix_world.translation - pivot
+    if offset.length * factor < 1e-3:
+        raise EditSkipped("the camera is at the pivot")
+    camera.matrix_world.translation = pivot + offset * factor
+
+
+def reset_view(ctx: EditContext) -> None:
+    saved = ctx.saved_view
+    if saved.camera_matrix is not None and ctx.scene.camera is not None:
+        ctx.scene.camera.matrix_world = saved.camera_matrix
+    if saved.view is not None and ctx.region_3d is not None:
+        location, rotation, distance = saved.view
+        ctx.region_3d.view_location = location
+        ctx.region_3d.view_rotation = rotation
+        ctx.region_3d.view_distance = distance
+
+
+def screenshot(ctx: EditContext) -> str:
+    if bpy.app.background:
+        raise EditSkipped("no window to take a screenshot of (background mode)")
+    folder = (
+        Path(bpy.app.tempdir or ".") if not bpy.data.filepath else Path(bpy.data.filepath).parent
+    )
+    path = folder / f"btf_wiimote_{len(ctx.screenshots) + 1:03d}.png"
+    bpy.ops.screen.screenshot(filepath=str(path))
+    ctx.screenshots.append(str(path))
+    return f"screenshot {path}"
+
+
+# --------------------------------------------------------------------- entry
+LIGHTS_RANGE = (1, 512)  # scene.btf_render.lights_per_redraw's limits
+
+
+def apply_edit(ctx: EditContext, edit: Edit) -> str:
+    """Apply one edit to the scene; returns a short description for the status line. Raises
+    EditSkipped when there is nothing to act on. Gesture ends (``edit.end``) change nothing."""
+    if edit.end:
+        return ""
+    a, amount, settings = edit.action, edit.amount, ctx.scene.btf_render
+    if a in (Action.NEXT_MATERIAL, Action.PREVIOUS_MATERIAL):
+        return step_material(ctx, 1 if a is Action.NEXT_MATERIAL else -1)
+    if a is Action.NEXT_OBJECT:
+        return next_object(ctx)
+    if a is Action.ROTATE_OBJECT:
+        rotate_object(ctx, amount, edit.axis)
+    elif a is Action.ROTATE_ENVIRONMENT:
+        rotate_environment(ctx, amount)
+    elif a is Action.ORBIT_CAMERA:
+        orbit(ctx, amount, edit.axis)
+    elif a in (Action.ZOOM_IN, Action.ZOOM_OUT):
+        zoom(ctx, amount if a is Action.ZOOM_IN else -amount)
+    elif a in (Action.LIGHTS_MORE, Action.LIGHTS_FEWER):
+        step = round(amount) * (1 if a is Action.LIGHTS_MORE else -1)
+        low, high = LIGHTS_RANGE
+        settings.lights_per_redraw = min(high, max(low, settings.lights_per_redraw + step))
+        return f"lights per redraw {settings.lights_per_redraw}"
+    elif a in (Action.EXPOSURE_UP, Action.EXPOSURE_DOWN):
+        material = active_btf_material(ctx)
+        material.btf.exposure += amount if a is Action.EXPOSURE_UP else -amount
+        return f"exposure {material.btf.exposure:+.2f} ({material.name})"
+    elif a is Action.PROGRESSIVE_TOGGLE:
+        settings.progressive = not settings.progressive
+        return f"progressive {'on' if settings.progressive else 'off'}"
+    elif a is Action.HELP_TOGGLE:
+        ctx.help_visible = not ctx.help_visible
+        return f"help {'shown' if ctx.help_visible else 'hidden'}"
+    elif a is Action.SCREENSHOT:
+        return screenshot(ctx)
+    elif a is Action.RESET_VIEW:
+        reset_view(ctx)
+        return "view reset"
+    return ""

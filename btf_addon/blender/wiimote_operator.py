@@ -1,0 +1,190 @@
+"""The "Wiimote Control" operator: a thin wrapper around ``WiimoteSession``.
+
+Interactive (``invoke``): connects (or says exactly why not), then polls on a window timer at
+100 Hz without ever blocking (every read has timeout 0) and ends on Esc, on a second run of the
+operator, or when the controller disappears (a message, the scene as edited so far, and the
+panel's button offers to reconnect). ``execute`` with a recording plays it to the end at once:
+what the tests and a bug-report reproduction run (timers never fire in background Blender).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+from bpy.props import BoolProperty, StringProperty
+from bpy.types import Operator, Panel
+
+from ..controllers.replay import ReplayTransport
+from ..controllers.transport import ControllerError
+from . import wiimote_overlay
+from .wiimote_edits import EditContext
+from .wiimote_preferences import current_bindings, wiimote_preferences
+from .wiimote_session import WiimoteSession
+
+POLL_INTERVAL_S = 0.01  # the Wiimote reports at about 100 Hz in continuous mode
+
+_running: dict = {}  # "session", "operator": the one live session (one Wiimote at a time)
+last_message: list[str] = [""]  # what the panel shows after a session ended
+
+
+def _region_3d(context):
+    space = getattr(context, "space_data", None)
+    if space is not None and space.type == "VIEW_3D":
+        return space.region_3d
+    for area in getattr(context.screen, "areas", ()) if context.screen else ():
+        if area.type == "VIEW_3D":
+            return area.spaces.active.region_3d
+    return None
+
+
+def make_session(context, replay_path: str = "", realtime: bool = True) -> WiimoteSession:
+    """A started session on a recording (``replay_path``) or the first Wiimote. Raises
+    ControllerError (no device, permission, kernel driver, bad recording) with the fix."""
+    prefs = wiimote_preferences()
+    ir_enabled = prefs.ir_enabled if prefs else True
+    sensitivity = prefs.ir_sensitivity if prefs else 3
+    if replay_path:
+        path = bpy.path.abspath(replay_path)
+        if not Path(path).is_file():
+            raise ControllerError(f"recording not found: {path}")
+        transport = ReplayTransport.from_file(path, realtime=realtime)
+    else:
+        from ..controllers.hid_transport import open_wiimote
+
+        record_to = None
+        if prefs is not None and prefs.record_sessions:
+            folder = Path(bpy.path.abspath("//")) if bpy.data.filepath else Path(bpy.app.tempdir)
+            record_to = folder / "btf_wiimote_session.jsonl"
+        transport = open_wiimote(record_to=record_to)
+    ctx = EditContext(context.scene, context.view_layer, _region_3d(context))
+    session = WiimoteSession(
+        transport, ctx, current_bindings(), ir_enabled=ir_enabled, ir_sensitivity=sensitivity
+    )
+    session.start()
+    return session
+
+
+class BTF_OT_wiimote_control(Operator):
+    """Drive the scene with a Wiimote (and Nunchuk): materials, environment, exposure, view"""
+
+    bl_idname = "btf.wiimote_control"
+    bl_label = "Wiimote Control"
+    bl_options = {"REGISTER"}  # undo steps are pushed per edit by the session, not per run
+
+    replay_path: StringProperty(
+        name="Recording",
+        subtype="FILE_PATH",
+        default="",
+        description="Play a JSONL recording instead of a connected Wiimote",
+    )
+    realtime: BoolProperty(
+        name="Real Time",
+        default=True,
+        description="Play the recording at its own pace (off: all at once)",
+    )
+
+    def execute(self, context):
+        if not self.replay_path:
+            self.report({"ERROR"}, "a live Wiimote needs the interactive operator (invoke)")
+            return {"CANCELLED"}
+        try:
+            session = make_session(context, self.replay_path, realtime=False)
+        except ControllerError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        _running["last"] = session
+        why = session.run_to_end()
+        self._report_end(session, why)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if "session" in _running:  # a second run stops the live session
+            _running["stop"] = True
+            return {"FINISHED"}
+        try:
+            session = make_session(context, self.replay_path, self.realtime)
+        except ControllerError as exc:
+            self.report({"ERROR"}, str(exc))
+            last_message[0] = str(exc).splitlines()[0]
+            return {"CANCELLED"}
+        _running.update(session=session, last=session)
+        _running.pop("stop", None)
+        wiimote_overlay.show(lambda: (session.ctx.help_visible, session.controls.bindings))
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(POLL_INTERVAL_S, window=context.window)
+        wm.modal_handler_add(self)
+        last_message[0] = "Wiimote connected"
+        self.report({"INFO"}, "Wiimote connected: Home shows the bindings, Esc ends")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        session = _running["session"]
+        if event.type == "ESC" or _running.get("stop"):
+            session.stop()
+            return self._finish(context, session, "stopped")
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        alive = session.step()
+        for area in context.screen.areas if context.screen else ():
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+        if not alive:
+            return self._finish(context, session, session.ended or "")
+        return {"PASS_THROUGH"}
+
+    def _finish(self, context, session, why: str):
+        context.window_manager.event_timer_remove(self._timer)
+        wiimote_overlay.hide()
+        _running.pop("session", None)
+        _running.pop("stop", None)
+        self._report_end(session, why)
+        return {"FINISHED"}
+
+    def _report_end(self, session, why: str) -> None:
+        if why == "stopped":
+            last_message[0] = "Wiimote session ended"
+            self.report({"INFO"}, last_message[0])
+        else:
+            last_message[0] = f"Wiimote disconnected ({why}); run Wiimote Control to reconnect"
+            self.report({"WARNING"}, last_message[0])
+
+
+class BTF_PT_wiimote(Panel):
+    bl_label = "Wiimote"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "BTF"
+
+    def draw(self, context) -> None:
+        layout = self.layout
+        live = "session" in _running
+        layout.operator(
+            BTF_OT_wiimote_control.bl_idname,
+            text="Stop Wiimote" if live else "Wiimote Control",
+            icon="CANCEL" if live else "PLAY",
+        )
+        if live:
+            session = _running["session"]
+            battery = session.wiimote.battery
+            layout.label(text=f"Battery {battery:.0%}" if battery is not None else "Connected")
+            layout.label(text=f"Extension: {session.wiimote.extension or 'none'}")
+            if session.messages:
+                layout.label(text=session.messages[-1])
+        elif last_message[0]:
+            layout.label(text=last_message[0], icon="INFO")
+
+
+classes = (BTF_OT_wiimote_control, BTF_PT_wiimote)
+_register, _unregister = bpy.utils.register_classes_factory(classes)
+
+
+def register() -> None:
+    _register()
+
+
+def unregister() -> None:
+    session = _running.pop("session", None)
+    if session is not None:
+        session.stop()
+    _unregister()

@@ -1,0 +1,214 @@
+"""The Wiimote operator's logic in background Blender, driven by hand-written report streams
+through the replay transport (timers never fire in background mode, so the operator's
+``execute`` and the session it wraps run the recording synchronously)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from blender_helpers import extension_submodule
+from helpers import studiolights_dir
+from wiimote_streams import (
+    ACK_WRITE,
+    CALIBRATION_REPLY,
+    STATUS_NO_EXTENSION,
+    records,
+    report_0x37,
+)
+
+from btf_addon.controllers.replay import dump
+
+# Status, the four IR writes' acks, the calibration reply, a first data report.
+START = [
+    (0.0, STATUS_NO_EXTENSION),
+    *[(0.001 * (i + 1), ACK_WRITE) for i in range(4)],
+    (0.01, CALIBRATION_REPLY),
+    (0.02, report_0x37()),
+]
+# Buttons (big-endian): Right 0x0200, Up 0x0800, Plus 0x1000, B 0x0004, One 0x0002.
+RIGHT, UP, PLUS, B_RIGHT, ONE, NONE = "0200", "0800", "1000", "0204", "0002", "0000"
+
+
+def press(t: float, buttons: str) -> list[tuple[float, str]]:
+    """Pressed at t, released 0.1 s later."""
+    return [(t, report_0x37(buttons=buttons)), (t + 0.1, report_0x37(buttons=NONE))]
+
+
+def hold(t0: float, t1: float, buttons: str) -> list[tuple[float, str]]:
+    """Held from t0 to t1 (reports every 10 ms, the Wiimote's continuous rate), released at t1."""
+    steps = round((t1 - t0) / 0.01)
+    held = [(t0 + 0.01 * i, report_0x37(buttons=buttons)) for i in range(steps)]
+    return [*held, (t1, report_0x37(buttons=NONE))]
+
+
+def scene_for_wiimote(bpy):
+    """A cube with two BTF materials in the file, a camera, an environment World."""
+    scene = bpy.context.scene
+    mesh = bpy.data.meshes.new("Cube")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    cube = bpy.data.objects.new("Cube", mesh)
+    scene.collection.objects.link(cube)
+    materials = []
+    for name in ("BTF A", "BTF B"):
+        mat = bpy.data.materials.new(name)
+        mat.btf.enabled = True
+        mat.btf.source = f"//{name}.btfm"
+        materials.append(mat)
+    mesh.materials.append(materials[0])
+    bpy.context.view_layer.objects.active = cube
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.0, -5.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    world = bpy.data.worlds.new("W")
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
+    mapping = nodes.new("ShaderNodeMapping")
+    links.new(mapping.outputs["Vector"], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], nodes["Background"].inputs["Color"])
+    scene.world = world
+    bpy.context.view_layer.update()  # matrix_world from the locations set above
+    return cube, materials, mapping
+
+
+def run_session(bpy, stream):
+    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    replay = extension_submodule("btf_addon.controllers.replay")
+    ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
+    session = session_mod.WiimoteSession(replay.ReplayTransport(stream), ctx)
+    session.start()
+    why = session.run_to_end()
+    return session, why
+
+
+def test_replay_performs_the_expected_edits(bpy_module, fresh_scene):
+    bpy = bpy_module
+    cube, (mat_a, mat_b), mapping = scene_for_wiimote(bpy)
+    settings = bpy.context.scene.btf_render
+    lights, progressive = settings.lights_per_redraw, settings.progressive
+    stream = records(
+        *START,
+        *press(0.5, RIGHT),  # next material: B
+        *press(1.0, PLUS),  # exposure +1/3 stop on B
+        *hold(2.0, 4.0, B_RIGHT),  # environment +45°/s for 2 s = 90°
+        *press(5.0, ONE),  # progressive off
+        *press(5.5, UP),  # lights per redraw + 1
+        (6.0, report_0x37()),
+    )
+    session, why = run_session(bpy, stream)
+    assert why == "the recording ended"
+    assert not [m for m in session.messages if "ack" in m or "no reply" in m]
+    assert cube.material_slots[0].material == mat_b
+    assert mat_b.btf.exposure == pytest.approx(1 / 3) and mat_a.btf.exposure == 0.0
+    # 200 reports 10 ms apart: the hold lasts exactly 2 s of report time. Float32 storage.
+    assert mapping.inputs["Rotation"].default_value[2] == pytest.approx(math.pi / 2, abs=1e-6)
+    assert settings.progressive is (not progressive)
+    assert settings.lights_per_redraw == lights + 1
+    assert session.undo_steps == [
+        "Wiimote: Next material",
+        "Wiimote: Exposure +",
+        "Wiimote: Rotate environment",  # one step for the whole 2 s gesture
+        "Wiimote: Progressive on/off",
+        "Wiimote: Lights per frame +",
+    ]
+    # Rumble on the mode change: the LED report with bit 0 set, then without.
+    written = [r.data.hex() for r in session.transport.written]
+    assert "1111" in written and written[-1] == "1110"
+
+
+def test_abrupt_end_mid_gesture_leaves_the_scene_intact(bpy_module, fresh_scene):
+    bpy = bpy_module
+    cube, (mat_a, _), mapping = scene_for_wiimote(bpy)
+    before = (len(bpy.data.objects), len(bpy.data.materials), len(bpy.data.worlds))
+    held = [(1.0 + 0.01 * i, report_0x37(buttons=B_RIGHT)) for i in range(51)]  # 1.0 .. 1.5
+    session, why = run_session(bpy, records(*START, *held, (1.505, "37 0204 80")))  # truncated
+    assert why == "the recording ended"
+    # Held from 1.0 s to the last report (1.505 s, truncated: its time still counts, its
+    # bytes do not): 0.505 s × 45°/s, and nothing after the stream ended.
+    assert mapping.inputs["Rotation"].default_value[2] == pytest.approx(
+        math.radians(45.0 * 0.505), abs=1e-6
+    )
+    assert session.undo_steps == ["Wiimote: Rotate environment"]  # the gesture was closed
+    assert (len(bpy.data.objects), len(bpy.data.materials), len(bpy.data.worlds)) == before
+    assert cube.material_slots[0].material == mat_a
+    assert bpy.context.scene.world.node_tree.nodes["Mapping"] == mapping
+    assert any(e.kind == "truncated" for e in session.wiimote.events)
+
+
+def test_operator_plays_a_recording_file(bpy_module, fresh_scene, tmp_path):
+    bpy = bpy_module
+    cube, (_, mat_b), mapping = scene_for_wiimote(bpy)
+    path = tmp_path / "session.jsonl"
+    dump(records(*START, *press(0.5, RIGHT), *hold(1.0, 2.0, B_RIGHT)), path)
+    assert bpy.ops.btf.wiimote_control(replay_path=str(path)) == {"FINISHED"}
+    assert cube.material_slots[0].material == mat_b
+    assert mapping.inputs["Rotation"].default_value[2] == pytest.approx(
+        math.radians(45.0), abs=1e-6
+    )
+    with pytest.raises(RuntimeError, match="recording not found"):
+        bpy.ops.btf.wiimote_control(replay_path=str(tmp_path / "missing.jsonl"))
+
+
+def test_edited_binding_rate_from_preferences(bpy_module, fresh_scene, tmp_path):
+    bpy = bpy_module
+    _, _, mapping = scene_for_wiimote(bpy)
+    prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
+    wiimote_prefs = prefs.wiimote_preferences()
+    assert wiimote_prefs is not None
+    assert bpy.ops.btf.wiimote_reset_bindings() == {"FINISHED"}
+    defaults = extension_submodule("btf_addon.controllers.bindings").default_bindings()
+
+    def same(stored, expected) -> bool:  # Blender stores the numbers as float32 (rel 6e-8)
+        def split(b):
+            return (b.action, b.input, b.kind, b.modifiers, b.axis), (
+                b.rate,
+                b.dead_zone,
+                b.full_scale,
+            )
+
+        return len(stored) == len(expected) and all(
+            split(a)[0] == split(b)[0] and split(a)[1] == pytest.approx(split(b)[1], rel=1e-6)
+            for a, b in zip(stored, expected, strict=True)
+        )
+
+    assert same(prefs.current_bindings(), defaults)
+    for item in wiimote_prefs.bindings:
+        if item.action == "ROTATE_ENVIRONMENT" and item.input == "RIGHT":
+            item.rate = 90.0
+    path = tmp_path / "s.jsonl"
+    dump(records(*START, *hold(1.0, 2.0, B_RIGHT)), path)
+    try:
+        assert bpy.ops.btf.wiimote_control(replay_path=str(path)) == {"FINISHED"}
+        assert mapping.inputs["Rotation"].default_value[2] == pytest.approx(
+            math.radians(90.0), abs=1e-6
+        )
+    finally:
+        wiimote_prefs.bindings.clear()  # back to the defaults for other tests
+    assert prefs.current_bindings() == defaults  # an empty list: the defaults themselves
+
+
+def test_view_and_object_edits(bpy_module, fresh_scene):
+    bpy = bpy_module
+    cube, _, _ = scene_for_wiimote(bpy)
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    actions = extension_submodule("btf_addon.controllers.actions")
+    Action, Edit = actions.Action, actions.Edit  # noqa: N806 - the extension's classes
+    ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
+    ctx.save_view()
+    camera = bpy.context.scene.camera
+    edits.apply_edit(ctx, Edit(0.0, Action.ORBIT_CAMERA, 90.0, "YAW"))
+    # Camera at (0, -5, 0) orbits 90° about the cube's origin: stick right moves it right.
+    assert tuple(camera.matrix_world.translation) == pytest.approx((5.0, 0.0, 0.0), abs=1e-5)
+    edits.apply_edit(ctx, Edit(0.0, Action.ORBIT_CAMERA, 30.0, "PITCH"))  # stick up: lift
+    assert camera.matrix_world.translation.z == pytest.approx(5.0 * math.sin(math.radians(30)))
+    edits.apply_edit(ctx, Edit(0.0, Action.ZOOM_IN, 1.0))
+    assert camera.matrix_world.translation.length == pytest.approx(2.5, abs=1e-5)
+    edits.apply_edit(ctx, Edit(0.0, Action.RESET_VIEW))
+    assert tuple(camera.matrix_world.translation) == pytest.approx((0.0, -5.0, 0.0), abs=1e-6)
+    edits.apply_edit(ctx, Edit(0.0, Action.ROTATE_OBJECT, 30.0, "Z"))
+    assert cube.matrix_world.to_euler().z == pytest.approx(math.radians(30.0), abs=1e-6)
+    with pytest.raises(edits.EditSkipped, match=r"no mesh objects|background"):
+        edits.apply_edit(ctx, Edit(0.0, Action.SCREENSHOT))
