@@ -155,3 +155,13 @@ def test_replay_stream_to_edits():
     edits += controls.step(wiimote.transport.now(), wiimote.pending)
     assert total(edits, Action.ROTATE_ENVIRONMENT) == pytest.approx(45.0 * 1.01)
     assert [e.action for e in edits if not e.continuous] == [Action.EXPOSURE_UP]
+
+
+def test_help_lines_name_inputs_and_rates():
+    from btf_addon.controllers.bindings import help_lines
+
+    lines = dict(help_lines(default_bindings()))
+    assert lines["B + Left (hold)"] == "Rotate environment −45 °/s"
+    assert lines["Home + A"] == "Reset view"
+    assert lines["Plus"] == "Exposure + 0.333 stops"
+    assert lines["Stick X"] == "Orbit camera yaw 60 °/s"
