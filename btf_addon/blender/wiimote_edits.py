@@ -17,7 +17,7 @@ Targets, in the words of issue 13:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -38,14 +38,26 @@ class ViewState:
     view: tuple | None = None  # (view_location, view_rotation, view_distance)
 
 
-@dataclass
 class EditContext:
-    scene: object
-    view_layer: object
-    region_3d: object | None = None  # a SpaceView3D's RegionView3D, None headless
-    saved_view: ViewState = field(default_factory=ViewState)
-    help_visible: bool = False
-    screenshots: list[str] = field(default_factory=list)
+    """Where edits land. Holds the scene and view layer by name and looks them up on every
+    use: an undo (Ctrl+Z during a session) reloads the data and would leave stored
+    references dangling."""
+
+    def __init__(self, scene, view_layer, region_3d=None) -> None:
+        self.scene_name = scene.name
+        self.view_layer_name = view_layer.name
+        self.region_3d = region_3d  # a SpaceView3D's RegionView3D, None headless
+        self.saved_view = ViewState()
+        self.help_visible = False
+        self.screenshots: list[str] = []
+
+    @property
+    def scene(self):
+        return bpy.data.scenes[self.scene_name]
+
+    @property
+    def view_layer(self):
+        return self.scene.view_layers[self.view_layer_name]
 
     def save_view(self) -> None:
         camera = self.scene.camera

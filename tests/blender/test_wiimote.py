@@ -12,6 +12,9 @@ from helpers import studiolights_dir
 from wiimote_streams import (
     ACK_WRITE,
     CALIBRATION_REPLY,
+    NUNCHUK_CAL_REPLY,
+    NUNCHUK_ID_REPLY,
+    STATUS_EXTENSION,
     STATUS_NO_EXTENSION,
     records,
     report_0x37,
@@ -212,3 +215,43 @@ def test_view_and_object_edits(bpy_module, fresh_scene):
     assert cube.matrix_world.to_euler().z == pytest.approx(math.radians(30.0), abs=1e-6)
     with pytest.raises(edits.EditSkipped, match=r"no mesh objects|background"):
         edits.apply_edit(ctx, Edit(0.0, Action.SCREENSHOT))
+
+
+def test_nunchuk_plugged_mid_session_orbits_the_camera(bpy_module, fresh_scene):
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    camera = bpy.context.scene.camera
+    stick_right = "e0 80 80 80 b3 03"  # stick x at its calibrated maximum, C and Z released
+    stream = records(
+        *START,
+        (0.5, STATUS_EXTENSION),
+        (0.51, ACK_WRITE),
+        (0.52, ACK_WRITE),
+        (0.53, NUNCHUK_ID_REPLY),
+        (0.54, NUNCHUK_CAL_REPLY),
+        *[(1.0 + 0.01 * i, report_0x37(ext=stick_right)) for i in range(150)],  # 1.0 .. 2.49
+        (2.5, report_0x37(ext="80 80 80 80 b3 03")),  # centred
+    )
+    session, _ = run_session(bpy, stream)
+    assert session.wiimote.extension == "nunchuk"
+    # 60°/s for 1.5 s = 90° about the cube at the origin: (0, −5, 0) → (5, 0, 0).
+    assert tuple(camera.matrix_world.translation) == pytest.approx((5.0, 0.0, 0.0), abs=1e-4)
+    assert session.undo_steps == ["Wiimote: Orbit camera"]
+
+
+def test_undo_steps_are_real(bpy_module, fresh_scene):
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    bpy.ops.ed.undo_push(message="scene set up")
+    session, _ = run_session(bpy, records(*START, *press(0.5, RIGHT), *press(1.0, PLUS)))
+    assert bpy.data.materials["BTF B"].btf.exposure == pytest.approx(1 / 3)
+    bpy.ops.ed.undo()  # one step: the exposure change (undo reloads: look everything up again)
+    assert bpy.data.materials["BTF B"].btf.exposure == 0.0
+    assert bpy.data.objects["Cube"].material_slots[0].material.name == "BTF B"
+    bpy.ops.ed.undo()  # the next: the material change
+    assert bpy.data.objects["Cube"].material_slots[0].material.name == "BTF A"
+    # A session that outlives an undo still edits the scene (it holds names, not references).
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    actions = extension_submodule("btf_addon.controllers.actions")
+    edits.apply_edit(session.ctx, actions.Edit(2.0, actions.Action.NEXT_MATERIAL))
+    assert bpy.data.objects["Cube"].material_slots[0].material.name == "BTF B"
