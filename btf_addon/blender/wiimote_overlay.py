@@ -32,8 +32,8 @@ def _draw() -> None:
     height = line_h * len(lines) + 2 * pad
     x0, y0 = 20, 40
     shader = gpu.shader.from_builtin("UNIFORM_COLOR")
-    quad = ((x0, y0), (x0 + width, y0), (x0 + width, y0 + height), (x0, y0 + height))
-    batch = batch_for_shader(shader, "TRI_FAN", {"pos": quad})
+    quad = ((x0, y0), (x0 + width, y0), (x0, y0 + height), (x0 + width, y0 + height))
+    batch = batch_for_shader(shader, "TRI_STRIP", {"pos": quad})
     gpu.state.blend_set("ALPHA")
     shader.uniform_float("color", (0.0, 0.0, 0.0, 0.6))
     batch.draw(shader)

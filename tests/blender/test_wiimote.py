@@ -255,3 +255,51 @@ def test_undo_steps_are_real(bpy_module, fresh_scene):
     actions = extension_submodule("btf_addon.controllers.actions")
     edits.apply_edit(session.ctx, actions.Edit(2.0, actions.Action.NEXT_MATERIAL))
     assert bpy.data.objects["Cube"].material_slots[0].material.name == "BTF B"
+
+
+def test_help_overlay_draws_the_bindings(bpy_module, fresh_scene):
+    """The overlay's draw callback, run into an offscreen with a pixel-space projection (what
+    a POST_PIXEL handler gets): the backdrop and the text are drawn only while help is on."""
+    import gpu
+    import numpy as np
+    from blender_helpers import init_gpu_module
+    from mathutils import Matrix
+
+    bpy = bpy_module
+    init_gpu_module(bpy)
+    overlay = extension_submodule("btf_addon.blender.wiimote_overlay")
+    bindings = extension_submodule("btf_addon.controllers.bindings").default_bindings()
+    width, height = 520, 560
+    offscreen = gpu.types.GPUOffScreen(width, height)
+
+    def draw(visible: bool) -> np.ndarray:
+        overlay._source = lambda: (visible, bindings)
+        with offscreen.bind():
+            fb = gpu.state.active_framebuffer_get()
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0))
+            pixel_space = Matrix.Translation((-1.0, -1.0, 0.0)) @ Matrix.Diagonal(
+                (2.0 / width, 2.0 / height, 1.0, 1.0)
+            )
+            with gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
+                gpu.matrix.load_identity()
+                gpu.matrix.load_projection_matrix(pixel_space)
+                overlay._draw()
+            buffer = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
+        buffer.dimensions = width * height * 4
+        return np.array(buffer, dtype=np.float32).reshape(height, width, 4)
+
+    try:
+        hidden = draw(False)
+        shown = draw(True)
+    finally:
+        overlay._source = None
+        offscreen.free()
+    assert not hidden.any()
+    # Inside the backdrop quad (from (20, 40)), left of the text: black at the overlay's 0.6
+    # alpha over a transparent target; 1/255 for an 8-bit target's rounding.
+    np.testing.assert_allclose(shown[45, 25], (0.0, 0.0, 0.0, 0.6), atol=1 / 255)
+    assert not shown[10, 10].any()  # outside the quad: untouched
+    # Text: bright pixels (white or amber) on the backdrop, several rows of them.
+    bright = shown[..., :3].max(axis=2) > 0.3
+    rows_with_text = np.flatnonzero(bright.any(axis=1))
+    assert len(rows_with_text) > 100  # 20 lines of 14 px text
