@@ -9,9 +9,12 @@ Format (one JSON object per line, UTF-8, lines in time order)::
 - ``dir``: ``"in"`` (device → host, an input report) or ``"out"`` (host → device, an output
   report the driver wrote).
 - ``hex``: the whole report as hex digits (spaces allowed), first byte the report id.
-Blank lines and lines starting with ``#`` are comments. A replay plays the ``in`` lines to the
-driver and records what the driver writes (the ``out`` lines of the file are what the recording
-driver wrote: kept for comparison, never played).
+Blank lines and lines starting with ``#`` are comments. Readers also accept ``time`` or
+``timestamp`` for ``t``, ``direction`` for ``dir``, ``data``, ``bytes`` or ``report`` for
+``hex``, and any letter case in the values (``"IN"``); writers use the names above.
+
+A replay plays the ``in`` lines to the driver and records what the driver writes (the ``out``
+lines of the file are what the recording driver wrote: kept for comparison, never played).
 """
 
 from __future__ import annotations
@@ -40,6 +43,13 @@ class Record:
         return json.dumps({"t": round(self.t, 6), "dir": self.direction, "hex": self.data.hex()})
 
 
+def _field(obj: dict, *names: str):
+    for name in names:
+        if name in obj:
+            return obj[name]
+    raise KeyError(names[0])
+
+
 def parse_line(line: str, where: str = "recording") -> Record | None:
     """One line → a Record, None for a blank or comment line. Raises ControllerError naming
     ``where`` on a malformed line."""
@@ -48,9 +58,9 @@ def parse_line(line: str, where: str = "recording") -> Record | None:
         return None
     try:
         obj = json.loads(text)
-        t = float(obj["t"])
-        direction = obj["dir"]
-        data = bytes.fromhex(obj["hex"].replace(" ", ""))
+        t = float(_field(obj, "t", "time", "timestamp"))
+        direction = str(_field(obj, "dir", "direction")).lower()
+        data = bytes.fromhex(str(_field(obj, "hex", "data", "bytes", "report")).replace(" ", ""))
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise ControllerError(f"{where}: not a report line ({exc}): {text[:80]!r}") from exc
     if direction not in (IN, OUT):

@@ -67,6 +67,11 @@ def test_malformed_lines_are_named(line, message):
         replay.parse_line(line, "x.jsonl:3")
 
 
+def test_field_name_aliases_are_read():
+    line = '{"timestamp": 0.5, "direction": "IN", "data": "30 08 00"}'
+    assert replay.parse_line(line) == replay.Record(0.5, replay.IN, b"\x30\x08\x00")
+
+
 def test_time_must_not_go_backwards(tmp_path):
     path = tmp_path / "bad.jsonl"
     path.write_text('{"t": 1, "dir": "in", "hex": "30"}\n{"t": 0.5, "dir": "in", "hex": "30"}\n')

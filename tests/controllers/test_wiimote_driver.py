@@ -192,3 +192,20 @@ def test_write_error_and_rumble_bit():
     with pytest.raises(ControllerDisconnectedError):
         wiimote.poll()  # 0.01 ≥ 0.0 + 0.005 switches it off before the stream ends
     assert written(transport)[-1] == "1110"
+
+
+def test_reply_before_its_request_is_kept_for_that_request():
+    # A hand-written stream may answer the Nunchuk identity before the calibration read (still
+    # pending in this driver) is done: the reply is kept and answers the identity read later.
+    stream = records(
+        (0.00, STATUS_EXTENSION),
+        (0.02, NUNCHUK_ID_REPLY),  # early: the driver has not asked yet
+        (0.03, NUNCHUK_CAL_REPLY),  # early too
+        (0.05, CALIBRATION_REPLY),  # now the calibration read completes, the queue moves on
+        (0.10, report_0x37(ext="e0 80 80 80 b3 03")),
+    )
+    wiimote, _, samples = run(stream)
+    assert wiimote.calibrated and wiimote.extension == "nunchuk"
+    assert samples[-1].nunchuk.stick == pytest.approx((1.0, 0.0))
+    assert samples[-1].nunchuk.calibrated
+    assert not [e for e in wiimote.events if e.kind == "timeout"]

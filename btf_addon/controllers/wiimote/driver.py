@@ -34,6 +34,8 @@ from .reports import ReportError
 
 log = logging.getLogger(__name__)
 
+EARLY_REPLY_S = 5.0  # how long a read reply that came before its request is kept
+
 
 @dataclass(frozen=True)
 class NunchukState:
@@ -104,6 +106,7 @@ class Wiimote:
         self.events: list[DriverEvent] = []
         self._queue: deque[_Operation] = deque()
         self._writes: deque[_Operation] = deque()  # sent writes awaiting their 0x22 ack
+        self._early: dict[int, tuple[float, memory.ReadReply]] = {}  # offset → (t, reply)
         self._last = Sample(0.0, 0)
         if ir_sensitivity not in ir.SENSITIVITY:
             raise ValueError(f"IR sensitivity must be 1..5, not {ir_sensitivity}")
@@ -129,6 +132,9 @@ class Wiimote:
             self._send(op.report)
             op.sent_at = self.transport.now()
             if op.wait == "read":
+                early = self._early.pop(op.address & 0xFFFF, None)
+                if early is not None and op.sent_at - early[0] <= EARLY_REPLY_S:
+                    self._on_read_reply(early[1])  # completes op and pumps on
                 return
             self._queue.popleft()
             if op.wait == "ack":
@@ -305,21 +311,24 @@ class Wiimote:
         return self._data_report(t, rid, payload)
 
     def _on_read_reply(self, reply: memory.ReadReply) -> None:
+        """Match a 0x21 to the read in flight by its address. A reply no read asked for yet is
+        kept for EARLY_REPLY_S: a device never sends one, but a recording written by hand may
+        order a reply before the request this driver sends later (e.g. the Nunchuk identity
+        while the calibration read is still pending); it then answers that read when sent."""
         head = self._queue[0] if self._queue else None
-        if head is None or head.wait != "read" or head.sent_at is None:
-            self._event("unexpected", f"read reply at {reply.offset:#06x} with no read pending")
-            return
-        expected = (head.address + len(head.received)) & 0xFFFF
-        if reply.error:
-            self._event("error", f"{head.what} failed with error {reply.error}")
-            self._finish(head, None)
-            return
-        if reply.offset != expected:
-            self._event("unexpected", f"read reply at {reply.offset:#06x}, {expected:#06x} wanted")
-            return
-        head.received += reply.data
-        if len(head.received) >= head.size:
-            self._finish(head, bytes(head.received[: head.size]))
+        if head is not None and head.wait == "read" and head.sent_at is not None:
+            expected = (head.address + len(head.received)) & 0xFFFF
+            if reply.offset == expected:
+                if reply.error:
+                    self._event("error", f"{head.what} failed with error {reply.error}")
+                    self._finish(head, None)
+                    return
+                head.received += reply.data
+                if len(head.received) >= head.size:
+                    self._finish(head, bytes(head.received[: head.size]))
+                return
+        self._early[reply.offset] = (self.transport.now(), reply)
+        self._event("unexpected", f"read reply at {reply.offset:#06x} before its request: kept")
 
     def _data_report(self, t: float, rid: int, payload: bytes) -> Sample:
         if rid == 0x3D:  # extension bytes only
