@@ -7,8 +7,10 @@ Targets, in the words of issue 13:
   steps through the BTF sources beside it (folders and ``.btfm`` files of the same parent);
 - objects: the active object steps through the view layer's mesh objects, sorted by name;
 - environment: the Z rotation of the World's Mapping node in front of its Environment Texture
-  (the node ``export/world.py`` reads; a TEXTURE-type Mapping turns the other way);
-- exposure: ``btf.exposure`` of the active object's BTF material;
+  (the node ``export/world.py`` reads; a TEXTURE-type Mapping turns the other way; inserted
+  with Generated coordinates when the texture has none);
+- exposure: ``btf.exposure`` of the active object's BTF material (without one: of every BTF
+  material in view);
 - lights per frame and progressive: ``scene.btf_render``;
 - orbit and zoom: the 3D viewport's view when one is given (``region_3d``), else the scene
   camera around the active object (or the origin); reset view restores what was saved at start.
@@ -117,15 +119,26 @@ def step_material(ctx: EditContext, step: int) -> str:
     return f"source {Path(material.btf.source).name}"
 
 
-def active_btf_material(ctx: EditContext):
-    obj = _active_object(ctx)
-    mat = obj.active_material
-    if mat is not None and mat.btf.enabled:
-        return mat
-    for slot in obj.material_slots:
-        if slot.material is not None and slot.material.btf.enabled:
-            return slot.material
-    raise EditSkipped(f"{obj.name!r} has no BTF material")
+def exposure_materials(ctx: EditContext) -> list:
+    """The BTF material(s) exposure acts on: the active object's (its active slot first), or,
+    without an active object with one, every BTF material of the view layer's objects."""
+    obj = ctx.view_layer.objects.active
+    if obj is not None:
+        mat = obj.active_material
+        if mat is not None and mat.btf.enabled:
+            return [mat]
+        for slot in obj.material_slots:
+            if slot.material is not None and slot.material.btf.enabled:
+                return [slot.material]
+    found = {
+        slot.material.name: slot.material
+        for o in ctx.view_layer.objects
+        for slot in o.material_slots
+        if slot.material is not None and slot.material.btf.enabled
+    }
+    if not found:
+        raise EditSkipped("no BTF material in view")
+    return [found[name] for name in sorted(found)]
 
 
 # -------------------------------------------------------------------- objects
@@ -156,16 +169,30 @@ def rotate_object(ctx: EditContext, degrees: float, axis: str) -> None:
 
 # ---------------------------------------------------------------- environment
 def world_mapping(scene):
-    """The World's Mapping node feeding its Environment Texture; EditSkipped when missing."""
+    """The World's Mapping node feeding its Environment Texture. An unlinked texture Vector
+    gets Texture Coordinate (Generated) → Mapping inserted, which looks the same (Generated is
+    the direction for a World) and is what ``export/world.py`` reads. EditSkipped when there is
+    no Environment Texture, or its Vector comes from something else."""
     world = scene.world
     if world is None or world.node_tree is None:
         raise EditSkipped("the scene has no World nodes to rotate")
-    for node in world.node_tree.nodes:
-        if node.bl_idname == "ShaderNodeTexEnvironment":
-            vector = node.inputs["Vector"]
-            if vector.is_linked and vector.links[0].from_node.bl_idname == "ShaderNodeMapping":
-                return vector.links[0].from_node
-            raise EditSkipped("the Environment Texture has no Mapping node in front of it")
+    tree = world.node_tree
+    for node in tree.nodes:
+        if node.bl_idname != "ShaderNodeTexEnvironment":
+            continue
+        vector = node.inputs["Vector"]
+        if not vector.is_linked:
+            coords = tree.nodes.new("ShaderNodeTexCoord")
+            mapping = tree.nodes.new("ShaderNodeMapping")
+            coords.location = (node.location.x - 400, node.location.y)
+            mapping.location = (node.location.x - 200, node.location.y)
+            tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+            tree.links.new(mapping.outputs["Vector"], vector)
+            return mapping
+        source = vector.links[0].from_node
+        if source.bl_idname == "ShaderNodeMapping":
+            return source
+        raise EditSkipped(f"the Environment Texture's vector comes from {source.bl_label!r}")
     raise EditSkipped("the World has no Environment Texture")
 
 
@@ -273,9 +300,11 @@ def apply_edit(ctx: EditContext, edit: Edit) -> str:
         settings.lights_per_redraw = min(high, max(low, settings.lights_per_redraw + step))
         return f"lights per redraw {settings.lights_per_redraw}"
     elif a in (Action.EXPOSURE_UP, Action.EXPOSURE_DOWN):
-        material = active_btf_material(ctx)
-        material.btf.exposure += amount if a is Action.EXPOSURE_UP else -amount
-        return f"exposure {material.btf.exposure:+.2f} ({material.name})"
+        materials = exposure_materials(ctx)
+        for material in materials:
+            material.btf.exposure += amount if a is Action.EXPOSURE_UP else -amount
+        names = ", ".join(m.name for m in materials)
+        return f"exposure {materials[0].btf.exposure:+.2f} ({names})"
     elif a is Action.PROGRESSIVE_TOGGLE:
         settings.progressive = not settings.progressive
         return f"progressive {'on' if settings.progressive else 'off'}"

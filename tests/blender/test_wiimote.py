@@ -303,3 +303,26 @@ def test_help_overlay_draws_the_bindings(bpy_module, fresh_scene):
     bright = shown[..., :3].max(axis=2) > 0.3
     rows_with_text = np.flatnonzero(bright.any(axis=1))
     assert len(rows_with_text) > 100  # 20 lines of 14 px text
+
+
+def test_environment_without_mapping_gets_one_and_exposure_without_active_object(
+    bpy_module, fresh_scene
+):
+    bpy = bpy_module
+    _, (mat_a, _), mapping = scene_for_wiimote(bpy)
+    tree = bpy.context.scene.world.node_tree
+    tree.nodes.remove(mapping)  # the Environment Texture's Vector is now unlinked
+    bpy.context.view_layer.objects.active = None
+    run_session(bpy, records(*START, *hold(1.0, 2.0, B_RIGHT), *press(3.0, PLUS)))
+    inserted = [n for n in tree.nodes if n.bl_idname == "ShaderNodeMapping"]
+    assert len(inserted) == 1
+    assert inserted[0].inputs["Rotation"].default_value[2] == pytest.approx(
+        math.radians(45.0), abs=1e-6
+    )
+    env = extension_submodule("btf_addon.blender.export.world").environment_from_world(
+        bpy.context.scene.world
+    )
+    assert env.messages == [] and env.environment.rotation_z_rad == pytest.approx(
+        math.radians(45.0), abs=1e-6
+    )
+    assert mat_a.btf.exposure == pytest.approx(1 / 3)  # the BTF material in view
