@@ -26,6 +26,7 @@ from .transport import (
 VENDOR_ID = 0x057E
 PRODUCT_IDS = (0x0306, 0x0330)  # RVL-CNT-01 and the -TR (built-in Motion Plus)
 KERNEL_DRIVER = "wiimote"  # the name drivers/hid/hid-wiimote registers under /sys/bus/hid
+OUTPUT_REPORT_SIZE = 22  # 0x16 write: id + 21 bytes, the longest output report
 REPORT_SIZE = 23  # the longest Wiimote input report (0x3d: id + 21 bytes), with room
 
 UDEV_RULE = (
@@ -120,15 +121,19 @@ def check_kernel_driver(path: bytes | str, sys_root="/sys") -> None:
 class HidTransport:
     """One opened Wiimote. ``now()`` is ``time.monotonic()`` at the last read."""
 
-    def __init__(self, device, path: bytes) -> None:
+    def __init__(self, device, path: bytes, pad_to: int = 0) -> None:
         self._device = device
         self.path = path
+        # Windows' HID stack takes output reports only at the device's full output report
+        # length (22 bytes for the Wiimote); Linux hidraw takes the report as it is. Not tried
+        # on Windows here (no device, no Windows machine).
+        self._pad_to = pad_to
         self._now = time.monotonic()
         self._nonblocking = False
 
     def write(self, data: bytes) -> None:
         try:
-            written = self._device.write(bytes(data))
+            written = self._device.write(bytes(data).ljust(self._pad_to, b"\0"))
         except (OSError, ValueError) as exc:
             raise ControllerDisconnectedError(f"the Wiimote went away (write: {exc})") from exc
         if written is not None and written < 0:
@@ -179,7 +184,9 @@ def open_wiimote(
         device.open_path(info.path)
     except (OSError, ValueError) as exc:
         raise diagnose_open_failure(info.path, exc) from exc
-    transport = HidTransport(device, info.path)
+    transport = HidTransport(
+        device, info.path, OUTPUT_REPORT_SIZE if sys.platform == "win32" else 0
+    )
     if record_to is not None:
         from .replay import RecordingTransport
 
