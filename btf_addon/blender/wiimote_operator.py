@@ -28,14 +28,16 @@ _running: dict = {}  # "session", "operator": the one live session (one Wiimote 
 last_message: list[str] = [""]  # what the panel shows after a session ended
 
 
-def _region_3d(context):
-    space = getattr(context, "space_data", None)
-    if space is not None and space.type == "VIEW_3D":
-        return space.region_3d
-    for area in getattr(context.screen, "areas", ()) if context.screen else ():
-        if area.type == "VIEW_3D":
-            return area.spaces.active.region_3d
-    return None
+def _view_3d(context):
+    """(RegionView3D, its WINDOW region) of the 3D view the operator runs in (or the first
+    one on the screen); (None, None) headless."""
+    areas = [context.area] if context.area and context.area.type == "VIEW_3D" else []
+    areas += [a for a in (context.screen.areas if context.screen else ()) if a.type == "VIEW_3D"]
+    for area in areas:
+        for region in area.regions:
+            if region.type == "WINDOW":
+                return area.spaces.active.region_3d, region
+    return None, None
 
 
 def make_session(context, replay_path: str = "", realtime: bool = True) -> WiimoteSession:
@@ -57,7 +59,7 @@ def make_session(context, replay_path: str = "", realtime: bool = True) -> Wiimo
             folder = Path(bpy.path.abspath("//")) if bpy.data.filepath else Path(bpy.app.tempdir)
             record_to = folder / "btf_wiimote_session.jsonl"
         transport = open_wiimote(record_to=record_to)
-    ctx = EditContext(context.scene, context.view_layer, _region_3d(context))
+    ctx = EditContext(context.scene, context.view_layer, *_view_3d(context))
     session = WiimoteSession(
         transport, ctx, current_bindings(), ir_enabled=ir_enabled, ir_sensitivity=sensitivity
     )

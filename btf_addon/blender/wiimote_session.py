@@ -13,12 +13,12 @@ from collections.abc import Iterable
 
 import bpy
 
-from ..controllers.actions import ACTION_LABELS, Action, Edit
+from ..controllers.actions import ACTION_LABELS, TARGETED, Action, Edit
 from ..controllers.bindings import Binding
 from ..controllers.controls import Controls
 from ..controllers.transport import ControllerDisconnectedError, ControllerError
 from ..controllers.wiimote.driver import Wiimote
-from .wiimote_edits import EditContext, EditSkipped, apply_edit
+from .wiimote_edits import EditContext, EditSkipped, apply_edit, object_under_pointer
 
 log = logging.getLogger(__name__)
 
@@ -92,6 +92,7 @@ class WiimoteSession:
             if edit.end:
                 self._undo(f"Wiimote: {label}")
                 continue
+            self.ctx.target = self._target(edit)
             try:
                 text = apply_edit(self.ctx, edit)
             except EditSkipped as skipped:
@@ -104,6 +105,15 @@ class WiimoteSession:
                     self._say(text)
                 if edit.action in RUMBLE_ON and self.ended is None:
                     self._feedback(edit.action)
+
+    def _target(self, edit: Edit) -> str | None:
+        """The object a targeted action acts on: the edit's own target, else the object under
+        the IR pointer (None: the active object)."""
+        if edit.action not in TARGETED:
+            return None
+        if edit.target is not None:
+            return edit.target
+        return object_under_pointer(self.ctx, edit.pointer) if edit.pointer else None
 
     def _feedback(self, action: Action) -> None:
         try:

@@ -59,7 +59,9 @@ class Edit:
     amount accumulated since the previous edit (rate × deflection × seconds), several per
     gesture, then one edit with ``end=True`` (amount 0) when the gesture ends: the Blender
     layer pushes one undo step per discrete edit and one per ending gesture. ``target``: what
-    the device points at (an object name under the IR pointer or the headset's gaze), or None.
+    the edit acts on when the device names it (an object name, e.g. under the headset's gaze),
+    or None; ``pointer``: where the device points ((x, y) in −1..1 of the view, the Wiimote's
+    IR camera), for the Blender layer to find the object under it; None when unknown.
     """
 
     t: float
@@ -68,11 +70,23 @@ class Edit:
     axis: str = ""
     end: bool = False
     target: str | None = None
+    pointer: tuple[float, float] | None = None
 
     @property
     def continuous(self) -> bool:
         return self.action in CONTINUOUS
 
+
+#: Actions that act on one object: the pointed-at one when there is a pointer or target.
+TARGETED = frozenset(
+    {
+        Action.NEXT_MATERIAL,
+        Action.PREVIOUS_MATERIAL,
+        Action.EXPOSURE_UP,
+        Action.EXPOSURE_DOWN,
+        Action.ROTATE_OBJECT,
+    }
+)
 
 CONTINUOUS = frozenset(
     {

@@ -23,6 +23,7 @@ from .actions import Action, Edit
 from .bindings import DPAD, Binding, Kind, default_bindings
 from .wiimote.buttons import button_names
 from .wiimote.driver import Sample
+from .wiimote.ir import pointer as ir_pointer
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,7 @@ class InputState:
     t: float
     held: frozenset[str]
     axes: dict[str, float]
+    pointer: tuple[float, float] | None = None
 
 
 def input_state(sample: Sample) -> tuple[frozenset[str], dict[str, float]]:
@@ -100,7 +102,8 @@ class Controls:
                 continue
             value = self._value(binding, state)
             if value:
-                edits.append(Edit(t, binding.action, binding.rate * value * (t - t0), binding.axis))
+                amount = binding.rate * value * (t - t0)
+                edits.append(Edit(t, binding.action, amount, binding.axis, pointer=state.pointer))
         self._t_integrated = t
 
     def _gesture_edges(self, t: float, edits: list[Edit]) -> None:
@@ -129,7 +132,8 @@ class Controls:
                     continue
             elif binding.input not in pressed or not self._applies(binding, held):
                 continue
-            edits.append(Edit(t, binding.action, binding.rate, binding.axis))
+            pointer = self._state.pointer if self._state else None
+            edits.append(Edit(t, binding.action, binding.rate, binding.axis, pointer=pointer))
             self._used_modifiers |= set(binding.modifiers)
         self._used_modifiers -= released
         self._used_modifiers &= held
@@ -140,19 +144,28 @@ class Controls:
         edits: list[Edit] = []
         for sample in samples:
             held, axes = input_state(sample)
-            self.feed(sample.t, held, axes, edits)
+            pointer = ir_pointer(sample.ir_dots) if sample.ir_dots else None
+            self.feed(sample.t, held, axes, edits, pointer)
         if self._t_integrated is not None and now > self._t_integrated:
             self._integrate(now, edits)
         return edits
 
-    def feed(self, t: float, held: frozenset[str], axes: dict[str, float], edits: list[Edit]):
-        """One input state at time ``t`` (any device: the VR controllers feed these too)."""
+    def feed(
+        self,
+        t: float,
+        held: frozenset[str],
+        axes: dict[str, float],
+        edits: list[Edit],
+        pointer: tuple[float, float] | None = None,
+    ) -> None:
+        """One input state at time ``t`` (any device: the VR controllers feed these too);
+        ``pointer``: where the device points now ((x, y) in −1..1), copied onto the edits."""
         if self._t_integrated is None:
             self._t_integrated = t
         self._integrate(t, edits)
         before = self._state.held if self._state else frozenset()
         held = self._dominance(held)
-        self._state = InputState(t, held, dict(axes))
+        self._state = InputState(t, held, dict(axes), pointer)
         self._presses(t, before, held, edits)
         self._gesture_edges(t, edits)
 

@@ -326,3 +326,30 @@ def test_environment_without_mapping_gets_one_and_exposure_without_active_object
         math.radians(45.0), abs=1e-6
     )
     assert mat_a.btf.exposure == pytest.approx(1 / 3)  # the BTF material in view
+
+
+def test_ir_pointer_picks_the_object_a_material_change_acts_on(bpy_module, fresh_scene):
+    bpy = bpy_module
+    _, (mat_a, mat_b), _ = scene_for_wiimote(bpy)
+    cubes = []
+    for x in (-2.0, 2.0):
+        bpy.ops.mesh.primitive_cube_add(size=1.0, location=(x, 0.0, 0.0))
+        cube = bpy.context.view_layer.objects.active
+        cube.data.materials.append(mat_a)
+        cubes.append(cube)
+    left, right = cubes
+    camera = bpy.context.scene.camera
+    camera.location = (0.0, -10.0, 0.0)
+    camera.rotation_euler = (math.pi / 2, 0.0, 0.0)  # looking along +Y
+    bpy.context.view_layer.objects.active = left
+    bpy.context.view_layer.update()
+    # Two dots at x 100 and 300, y 383 (basic IR bytes, hi byte 0x45): midpoint x 200 →
+    # pointer x = 1 − 400/1023 ≈ 0.61, on the right cube (it spans about 0.42..0.69 of the
+    # 50 mm camera's half width at 10 m); y ≈ 0.
+    pointing = "647f452c7f" + "ff" * 5
+    stream = records(
+        *START, (0.5, report_0x37(ir=pointing)), (0.6, report_0x37(RIGHT, ir=pointing))
+    )
+    run_session(bpy, stream)
+    assert right.material_slots[0].material == mat_b
+    assert left.material_slots[0].material == mat_a  # the active object was not touched

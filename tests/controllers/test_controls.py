@@ -165,3 +165,14 @@ def test_help_lines_name_inputs_and_rates():
     assert lines["Home + A"] == "Reset view"
     assert lines["Plus"] == "Exposure + 0.333 stops"
     assert lines["Stick X"] == "Orbit camera yaw 60 °/s"
+
+
+def test_edits_carry_the_ir_pointer():
+    from btf_addon.controllers.wiimote.ir import Dot
+
+    dots = (Dot(100, 383, None), Dot(300, 383, None))
+    pointed = Sample(0.1, Btn.RIGHT, ir_dots=dots)
+    edits = Controls().step(0.1, [s(0.0), pointed])
+    assert edits[0].action is Action.NEXT_MATERIAL
+    assert edits[0].pointer == pytest.approx((1 - 400 / 1023, 1 - 766 / 767))
+    assert Controls().step(0.1, [s(0.0), s(0.1, Btn.RIGHT)])[0].pointer is None

@@ -118,3 +118,12 @@ def test_nunchuk_data_and_calibration():
     assert nunchuk.stick_value(0x20, cal.stick.x) == -1.0
     assert nunchuk.stick_value(0xB0, cal.stick.x) == pytest.approx(0.5)
     assert nunchuk.parse_nunchuk_calibration(h("ff") * 16) is None
+
+
+def test_pointer_from_the_sensor_bar_dots():
+    centre = [ir.Dot(411, 383, None), ir.Dot(611, 383, None)]  # midpoint (511, 383)
+    assert ir.pointer(centre) == pytest.approx((1 - 1022 / 1023, 1 - 766 / 767))
+    left_in_camera = [ir.Dot(100, 0, 2), ir.Dot(300, 0, 3), ir.Dot(900, 700, 1)]
+    x, y = ir.pointer(left_in_camera)  # the two largest: (100, 0) and (300, 0)
+    assert x == pytest.approx(1 - 400 / 1023) and y == 1.0  # mirrored: points right and up
+    assert ir.pointer([ir.Dot(5, 5, None)]) is None

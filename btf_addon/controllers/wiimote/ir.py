@@ -84,3 +84,20 @@ def parse_extended(data: bytes) -> list[Dot]:
         if _valid(x, y):
             dots.append(Dot(x, y, hi & 0x0F))
     return dots
+
+
+CAMERA_SIZE = (1023, 767)  # the largest x and y a dot can have
+
+
+def pointer(dots: tuple[Dot, ...] | list[Dot]) -> tuple[float, float] | None:
+    """Where the remote points, from the sensor bar's two dots: (x, y) in −1..1, (0, 0) when
+    the bar is in the middle of the camera's view, None with fewer than two dots. Uses the two
+    largest dots (extended mode) or the first two. x is mirrored (turning the remote right moves
+    the bar left in its camera), and y too, assuming the camera's y grows downward in the
+    picture as x grows to the camera's right; the y sign is not checked against a device."""
+    if len(dots) < 2:
+        return None
+    two = sorted(dots, key=lambda d: -(d.size or 0))[:2] if dots[0].size is not None else dots[:2]
+    mx = (two[0].x + two[1].x) / 2
+    my = (two[0].y + two[1].y) / 2
+    return 1.0 - 2.0 * mx / CAMERA_SIZE[0], 1.0 - 2.0 * my / CAMERA_SIZE[1]
