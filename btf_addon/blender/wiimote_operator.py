@@ -147,6 +147,9 @@ class BTF_OT_wiimote_control(Operator):
         if why == "stopped":
             last_message[0] = "Wiimote session ended"
             self.report({"INFO"}, last_message[0])
+        elif why == "the recording ended":
+            last_message[0] = f"Recording played to the end ({len(session.applied)} edits)"
+            self.report({"INFO"}, last_message[0])
         else:
             last_message[0] = f"Wiimote disconnected ({why}); run Wiimote Control to reconnect"
             self.report({"WARNING"}, last_message[0])

@@ -141,6 +141,11 @@ def draw(layout, prefs) -> None:
         row.prop(item, "kind", text="")
         row.prop(item, "action", text="")
         row.prop(item, "rate")
+        if item.kind == Kind.AXIS.name:
+            row.prop(item, "dead_zone", text="Dead")
+            row.prop(item, "full_scale", text="Full")
+        if item.action in (Action.ORBIT_CAMERA.name, Action.ROTATE_OBJECT.name):
+            row.prop(item, "axis", text="")
     box.operator(BTF_OT_wiimote_reset_bindings.bl_idname, icon="LOOP_BACK")
 
 
