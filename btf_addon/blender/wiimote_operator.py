@@ -9,6 +9,7 @@ what the tests and a bug-report reproduction run (timers never fire in backgroun
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import bpy
@@ -21,6 +22,8 @@ from . import wiimote_overlay
 from .wiimote_edits import EditContext
 from .wiimote_preferences import current_bindings, wiimote_preferences
 from .wiimote_session import WiimoteSession
+
+log = logging.getLogger(__name__)
 
 POLL_INTERVAL_S = 0.01  # the Wiimote reports at about 100 Hz in continuous mode
 
@@ -127,7 +130,15 @@ class BTF_OT_wiimote_control(Operator):
             return self._finish(context, session, "stopped")
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
-        alive = session.step()
+        try:
+            alive = session.step()
+        except Exception as exc:  # end the session cleanly, then show what went wrong
+            log.exception("Wiimote session step failed")
+            session.stop()
+            self._finish(context, session, "stopped")
+            last_message[0] = f"Wiimote session failed: {type(exc).__name__}: {exc}"
+            self.report({"ERROR"}, last_message[0])
+            return {"CANCELLED"}
         for area in context.screen.areas if context.screen else ():
             if area.type == "VIEW_3D":
                 area.tag_redraw()

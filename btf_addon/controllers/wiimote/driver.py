@@ -108,6 +108,7 @@ class Wiimote:
         self._writes: deque[_Operation] = deque()  # sent writes awaiting their 0x22 ack
         self._early: dict[int, tuple[float, memory.ReadReply]] = {}  # offset → (t, reply)
         self._last = Sample(0.0, 0)
+        self.pending: list[Sample] = []  # the samples of a poll that ended in a disconnect
         if ir_sensitivity not in ir.SENSITIVITY:
             raise ValueError(f"IR sensitivity must be 1..5, not {ir_sensitivity}")
 
