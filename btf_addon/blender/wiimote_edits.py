@@ -215,42 +215,6 @@ def rotate_environment(ctx: EditContext, degrees: float) -> None:
     rotation.default_value = (x, y, z + sign * math.radians(degrees))
 
 
-# ------------------------------------------------------------------ pointer
-def pointer_ray(ctx: EditContext, pointer: tuple[float, float]) -> tuple[Vector, Vector] | None:
-    """(origin, direction) in world space through ``pointer`` ((x, y) in −1..1 of the view):
-    the 3D viewport's view when there is one, else the scene camera's frame."""
-    if ctx.region is not None and ctx.region_3d is not None:
-        from bpy_extras import view3d_utils
-
-        xy = ((pointer[0] + 1) / 2 * ctx.region.width, (pointer[1] + 1) / 2 * ctx.region.height)
-        origin = view3d_utils.region_2d_to_origin_3d(ctx.region, ctx.region_3d, xy)
-        return origin, view3d_utils.region_2d_to_vector_3d(ctx.region, ctx.region_3d, xy)
-    camera = ctx.scene.camera
-    if camera is None:
-        return None
-    # view_frame: the frame's corners in camera space (top right, bottom right, bottom left,
-    # top left) on the plane z = −1 for a perspective camera.
-    corners = camera.data.view_frame(scene=ctx.scene)
-    right, top = corners[0].x, corners[0].y
-    left, bottom = corners[2].x, corners[2].y
-    x = left + (pointer[0] + 1) / 2 * (right - left)
-    y = bottom + (pointer[1] + 1) / 2 * (top - bottom)
-    world = camera.matrix_world
-    if camera.data.type == "ORTHO":
-        return world @ Vector((x, y, 0.0)), world.to_3x3() @ Vector((0.0, 0.0, -1.0))
-    return world.translation.copy(), (world.to_3x3() @ Vector((x, y, corners[0].z))).normalized()
-
-
-def object_under_pointer(ctx: EditContext, pointer: tuple[float, float]) -> str | None:
-    """The name of the first object the pointer's ray hits, or None."""
-    ray = pointer_ray(ctx, pointer)
-    if ray is None:
-        return None
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    hit, _, _, _, obj, _ = ctx.scene.ray_cast(depsgraph, ray[0], ray[1])
-    return obj.original.name if hit and obj is not None else None
-
-
 # ------------------------------------------------------------------- view
 def _pivot(ctx: EditContext) -> Vector:
     obj = ctx.view_layer.objects.active

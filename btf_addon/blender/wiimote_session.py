@@ -18,7 +18,8 @@ from ..controllers.bindings import Binding
 from ..controllers.controls import Controls
 from ..controllers.transport import ControllerDisconnectedError, ControllerError
 from ..controllers.wiimote.driver import Wiimote
-from .wiimote_edits import EditContext, EditSkipped, apply_edit, object_under_pointer
+from .wiimote_edits import EditContext, EditSkipped, apply_edit
+from .wiimote_pointer import object_under_pointer
 
 log = logging.getLogger(__name__)
 
