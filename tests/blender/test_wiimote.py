@@ -353,3 +353,36 @@ def test_ir_pointer_picks_the_object_a_material_change_acts_on(bpy_module, fresh
     run_session(bpy, stream)
     assert right.material_slots[0].material == mat_b
     assert left.material_slots[0].material == mat_a  # the active object was not touched
+
+
+def test_bindings_are_saved_and_restored_with_the_preferences(bpy_module, installed):
+    """Edited bindings go into userpref.blend (the session's isolated user folder) and come
+    back in a new Blender process that reads the preferences."""
+    import os
+    import subprocess
+    import sys
+
+    bpy = bpy_module
+    wiimote_prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
+    prefs = wiimote_prefs.wiimote_preferences()
+    assert bpy.ops.btf.wiimote_reset_bindings() == {"FINISHED"}
+    prefs.bindings[8].rate = 77.0  # B + Right: environment °/s
+    prefs.ir_sensitivity = 5
+    try:
+        assert bpy.ops.wm.save_userpref() == {"FINISHED"}
+        code = (
+            "import bpy\n"
+            "bpy.ops.wm.read_userpref()\n"
+            "from bl_ext.user_default.btf_materials.btf_addon.blender import wiimote_preferences\n"
+            "p = wiimote_preferences.wiimote_preferences()\n"
+            "b = wiimote_preferences.current_bindings()[8]\n"
+            "print('RESTORED', len(p.bindings), b.action.name, b.input, b.rate, p.ir_sensitivity)\n"
+        )
+        proc = subprocess.run(
+            [sys.executable, "-c", code], env=dict(os.environ), capture_output=True, text=True
+        )
+        assert "RESTORED 19 ROTATE_ENVIRONMENT RIGHT 77.0 5" in proc.stdout, proc.stderr[-2000:]
+    finally:
+        prefs.bindings.clear()
+        prefs.ir_sensitivity = 3
+        bpy.ops.wm.save_userpref()
