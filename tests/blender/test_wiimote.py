@@ -213,8 +213,21 @@ def test_view_and_object_edits(bpy_module, fresh_scene):
     assert tuple(camera.matrix_world.translation) == pytest.approx((0.0, -5.0, 0.0), abs=1e-6)
     edits.apply_edit(ctx, Edit(0.0, Action.ROTATE_OBJECT, 30.0, "Z"))
     assert cube.matrix_world.to_euler().z == pytest.approx(math.radians(30.0), abs=1e-6)
-    with pytest.raises(edits.EditSkipped, match=r"no mesh objects|background"):
+    with pytest.raises(edits.EditSkipped, match=r"background"):
         edits.apply_edit(ctx, Edit(0.0, Action.SCREENSHOT))
+    # Next object: the view layer's meshes by name, wrapping around; cameras are skipped.
+    other = bpy.data.objects.new("Another", bpy.data.meshes.new("Another"))
+    bpy.context.scene.collection.objects.link(other)
+    bpy.context.view_layer.update()  # the view layer lists objects linked since its last sync
+    assert edits.apply_edit(ctx, Edit(0.0, Action.NEXT_OBJECT)) == "object Another"
+    assert bpy.context.view_layer.objects.active == other and other.select_get()
+    assert edits.apply_edit(ctx, Edit(0.0, Action.NEXT_OBJECT)) == "object Cube"
+    # Lights per redraw stays within the property's range.
+    settings = bpy.context.scene.btf_render
+    settings.lights_per_redraw = 2
+    for _ in range(3):
+        edits.apply_edit(ctx, Edit(0.0, Action.LIGHTS_FEWER))
+    assert settings.lights_per_redraw == 1
 
 
 def test_nunchuk_plugged_mid_session_orbits_the_camera(bpy_module, fresh_scene):
