@@ -21,8 +21,9 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], None]) -> Path:
     fd, tmp = tempfile.mkstemp(
         prefix=f".{path.stem}.", suffix=".tmp" + path.suffix, dir=path.parent
     )
+    os.close(fd)  # reopened by name so that ``fh.name`` is the path (atomic_write_path uses it)
     try:
-        with os.fdopen(fd, "wb") as fh:
+        with open(tmp, "wb") as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
