@@ -8,6 +8,11 @@ BLENDERS := 4.2 4.5 5.0 5.3
 MAIN_BLENDER := 5.0
 # The Blender-facing tests: install the built zip, F12, viewport drawing, Cycles comparisons.
 BLENDER_TESTS := tests/blender
+# Where the whole suite runs. On 4.2/4.5 the CLI tests (bpy imported as a plain Python module, as
+# `python -m btf_addon render` does) cannot: bpy 4.2 segfaults and bpy 4.5 hangs when the Python
+# process exits after registering the add-on from the checkout. The Blender tests, which install
+# the zip as Blender does, exit cleanly on both.
+FULL_SUITE_BLENDERS := 5.0 5.3
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 # Blender 5.1+ runs Python 3.13. pyenv's shim answers `python3.13` only where 3.13 is selected,
@@ -71,9 +76,10 @@ wheels: setup
 	$(PY) tools/fetch_wheels.py
 
 # Without BLENDER: the whole suite on 5.0 (numpy 1.26) and on 5.3 (Python 3.13, numpy 2), then the
-# Blender-facing tests on the LTS releases. With BLENDER=X.Y: the whole suite on that version.
+# Blender-facing tests on the LTS releases. With BLENDER=X.Y: the same for that one version.
 # Each version's output starts with a "== Blender X.Y ==" banner; a summary line per version ends.
 ifdef BLENDER
+PYTEST_ARGS ?= $(if $(filter $(BLENDER),$(FULL_SUITE_BLENDERS)),,$(BLENDER_TESTS))
 test: setup wheels
 	@echo "== Blender $(BLENDER) ($$($(PY) -c 'import bpy, sys; print(bpy.app.version_string, "on Python", sys.version.split()[0])')) =="
 	$(PY) -m pytest $(PYTEST_ARGS)
