@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+from types import SimpleNamespace
 
 EXTENSION_MODULE = "bl_ext.user_default.btf_materials"
 
@@ -35,3 +36,35 @@ def init_gpu_module(bpy) -> None:
             data = temporary.data
             bpy.data.objects.remove(temporary)
             bpy.data.cameras.remove(data)
+
+
+def with_nodes(block):
+    """A new Material or World with its node tree on, on every Blender version (through the
+    extension's own ``compat``, the one place that knows versions)."""
+    return extension_submodule("btf_addon.blender.compat").with_nodes(block)
+
+
+def view_context(distance: float, width: int = 48, height: int = 32):
+    """A 3D view's context as the viewport code reads it: a perspective view looking down −z
+    at the origin from ``distance``, in a ``width`` × ``height`` region."""
+    import mathutils  # only importable once bpy is
+
+    view = mathutils.Matrix.Translation((0.0, 0.0, -distance))
+    proj = mathutils.Matrix(((1.5, 0, 0, 0), (0, 2.25, 0, 0), (0, 0, -1.002, -0.2), (0, 0, -1, 0)))
+    region_data = SimpleNamespace(
+        perspective_matrix=proj @ view, view_matrix=view, is_perspective=True
+    )
+    return SimpleNamespace(
+        region=SimpleNamespace(width=width, height=height), region_data=region_data
+    )
+
+
+def stand_in_engine():
+    """The engine as view_draw uses it. Background Blender has no 3D view, so the display-space
+    shader (colour management of the final blit) cannot be bound: that one call is skipped."""
+    engine = SimpleNamespace(redraws=0, reports=[])
+    engine.bind_display_space_shader = lambda scene: None
+    engine.unbind_display_space_shader = lambda: None
+    engine.tag_redraw = lambda: setattr(engine, "redraws", engine.redraws + 1)
+    engine.report = lambda kind, message: engine.reports.append(message)
+    return engine

@@ -21,12 +21,23 @@ def wheel_paths(manifest: Path = ROOT / "blender_manifest.toml") -> list[Path]:
     return [ROOT / entry for entry in data.get("wheels", [])]
 
 
+def python_version_of_tag(python_tag: str) -> str:
+    """``cp313`` → ``3.13``: the Python a CPython-specific wheel is built for."""
+    if not (python_tag.startswith("cp3") and python_tag[2:].isdigit()):
+        raise ValueError(f"not a CPython 3 wheel tag: {python_tag!r}")
+    return f"3.{python_tag[3:]}"
+
+
 def pip_download_args(wheel: Path) -> list[str]:
-    """pip arguments that fetch exactly ``wheel`` (name-version-python-abi-platform.whl)."""
-    name, version, _python, abi_tag, platform_tag = wheel.name[: -len(".whl")].split("-")
+    """pip arguments that fetch exactly ``wheel`` (name-version-python-abi-platform.whl).
+
+    pip's cache (``~/.cache/pip``) is used as usual, so the test environments and this script
+    download each file once."""
+    name, version, python_tag, abi_tag, platform_tag = wheel.name[: -len(".whl")].split("-")
     args = ["--no-deps", "--only-binary=:all:", "-d", str(wheel.parent)]
     if platform_tag != "any":
-        args += ["--python-version", "3.11", "--implementation", "cp", "--abi", abi_tag]
+        args += ["--python-version", python_version_of_tag(python_tag)]
+        args += ["--implementation", "cp", "--abi", abi_tag]
         for tag in platform_tag.split("."):
             args += ["--platform", tag]
     return [*args, f"{name}=={version}"]

@@ -73,3 +73,13 @@ def fresh_scene(bpy_module, installed):
     bpy_module.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     assert EXTENSION_MODULE in bpy_module.context.preferences.addons
     return bpy_module.context.scene
+
+
+def pytest_terminal_summary(terminalreporter):
+    """End the report with the Blender these tests ran on, so a failure names its version."""
+    bpy = sys.modules.get("bpy")
+    if bpy is not None:
+        terminalreporter.write_line(
+            f"Blender tests ran on Blender {bpy.app.version_string} "
+            f"(Python {sys.version.split()[0]})"
+        )

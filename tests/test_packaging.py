@@ -1,0 +1,112 @@
+"""The zip serves every supported Blender: bundled wheels per Python and platform, pinned test
+environments per Blender version, and version checks only in blender/compat.py. No bpy needed."""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections import defaultdict
+
+from helpers import ROOT
+
+# The Pythons the supported Blenders run: 4.2–5.0 run 3.11, 5.1 and later 3.13.
+PYTHON_TAGS = {"cp311", "cp313"}
+# The manifest's platforms and how their wheels' platform tags end.
+PLATFORM_SUFFIXES = {
+    "linux-x64": "x86_64",
+    "windows-x64": "win_amd64",
+    "macos-arm64": "arm64",
+}
+
+
+def manifest() -> dict:
+    with (ROOT / "blender_manifest.toml").open("rb") as fh:
+        return tomllib.load(fh)
+
+
+def bundled() -> list[tuple[str, str, str, str]]:
+    """(name, version, python tag, platform tag) of each wheel the manifest bundles."""
+    out = []
+    for entry in manifest()["wheels"]:
+        name, version, python, _abi, platform = entry.rsplit("/", 1)[1][: -len(".whl")].split("-")
+        out.append((name, version, python, platform))
+    return out
+
+
+def pins(path) -> dict[str, str]:
+    """``name==version`` lines of a requirements file, following ``-r`` includes."""
+    found: dict[str, str] = {}
+    for line in path.read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line.startswith("-r "):
+            found.update(pins(path.parent / line[3:].strip()))
+        elif "==" in line:
+            name, version = line.split("==")
+            found[name.strip().lower().replace("-", "_")] = version.strip()
+    return found
+
+
+def test_every_compiled_wheel_exists_for_each_python_and_platform():
+    compiled: dict[tuple[str, str], set[tuple[str, str]]] = defaultdict(set)
+    for name, version, python, platform in bundled():
+        if platform == "any":
+            assert python in {"py3", "py2.py3"}, (name, python)
+            continue
+        for manifest_platform, suffix in PLATFORM_SUFFIXES.items():
+            if platform.endswith(suffix):
+                compiled[(name, version)].add((python, manifest_platform))
+    assert len(compiled) == 6, sorted(compiled)  # pyopencl, moderngl, glcontext, hidapi, …
+    wanted = {(python, platform) for python in PYTHON_TAGS for platform in PLATFORM_SUFFIXES}
+    for package, have in compiled.items():
+        assert have == wanted, f"{package}: missing {sorted(wanted - have)}"
+    assert set(manifest()["platforms"]) == set(PLATFORM_SUFFIXES)
+
+
+def test_numpy_is_never_bundled():
+    """Blender ships its own numpy (1.26 up to 5.0, 2.x from 5.1): a bundled one would shadow it."""
+    assert not [w for w in bundled() if w[0].lower() == "numpy"]
+
+
+def test_bundled_versions_are_the_tested_versions():
+    """Every test environment installs the versions the zip bundles (requirements/common.txt)."""
+    common = pins(ROOT / "requirements" / "common.txt")
+    for name, version, _python, _platform in bundled():
+        assert common.get(name.lower()) == version, (name, version, common.get(name.lower()))
+
+
+def test_each_tested_blender_has_a_pinned_environment():
+    """Makefile's BLENDERS ↔ one requirements file each, pinning that bpy and a numpy it takes."""
+    makefile = (ROOT / "Makefile").read_text()
+    versions = re.search(r"^BLENDERS := (.+)$", makefile, re.M).group(1).split()
+    main = re.search(r"^MAIN_BLENDER := (.+)$", makefile, re.M).group(1).strip()
+    assert main in versions and {"4.2", "4.5"} <= set(versions)
+    for version in versions:
+        path = ROOT / (
+            "requirements-dev.txt" if version == main else f"requirements/blender-{version}.txt"
+        )
+        pinned = pins(path)
+        assert pinned["bpy"].startswith(f"{version}."), (path, pinned["bpy"])
+        numpy_major = int(pinned["numpy"].split(".")[0])
+        # bpy up to 5.0 needs numpy < 2 (Python 3.11); from 5.1 numpy >= 2.2 (Python 3.13).
+        old = tuple(map(int, version.split("."))) <= (5, 0)
+        assert numpy_major == (1 if old else 2), (version, pinned["numpy"])
+
+
+def test_manifest_minimum_is_compat_minimum():
+    """blender_version_min and compat.MINIMUM say the same version (compat imports bpy, so its
+    source is read, not imported)."""
+    source = (ROOT / "btf_addon" / "blender" / "compat.py").read_text()
+    minimum = re.search(r"^MINIMUM = \((\d+), (\d+), (\d+)\)$", source, re.M).groups()
+    assert manifest()["blender_version_min"] == ".".join(minimum)
+    assert "blender_version_max" not in manifest()  # nothing breaks on a newer Blender yet
+
+
+def test_version_checks_live_only_in_compat():
+    """One place knows Blender versions: no other module reads bpy.app.version."""
+    pattern = re.compile(r"bpy\.app\.version(?!_string)\b")
+    offenders = [
+        str(path.relative_to(ROOT))
+        for path in sorted((ROOT / "btf_addon").rglob("*.py"))
+        if path.name != "compat.py" and pattern.search(path.read_text())
+    ]
+    assert offenders == []
