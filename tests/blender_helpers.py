@@ -68,3 +68,43 @@ def stand_in_engine():
     engine.tag_redraw = lambda: setattr(engine, "redraws", engine.redraws + 1)
     engine.report = lambda kind, message: engine.reports.append(message)
     return engine
+
+
+def sphere_on_ground(bpy, tmp_path, material_source, size=(96, 64), segments=48, rings=24):
+    """The tests' common scene: a smooth BTF sphere (``material_source``: a BTFbase folder or
+    .btfm file) on a plain green ground under forest.exr, a camera looking slightly down, the
+    BTF engine at ``size`` with 24 virtual lights, rendering to ``tmp_path/f12.exr``."""
+    import math
+
+    from helpers import studiolights_dir
+
+    scene = bpy.context.scene
+    scene.render.engine = "BTF_RENDER"
+    scene.render.resolution_x, scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.btf_render.lights_total = 24
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=segments, ring_count=rings)
+    bpy.ops.object.shade_smooth()
+    material = with_nodes(bpy.data.materials.new("BTF"))
+    material.btf.enabled = True
+    material.btf.source = str(material_source)
+    bpy.context.object.data.materials.append(material)
+    bpy.ops.mesh.primitive_plane_add(size=6.0, location=(0.0, 0.0, -1.0))
+    plain = with_nodes(bpy.data.materials.new("Plain"))
+    plain.diffuse_color = (0.3, 0.6, 0.2, 1.0)
+    bpy.context.object.data.materials.append(plain)
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    scene.collection.objects.link(cam)
+    cam.location = (0.0, -5.0, 1.5)
+    cam.rotation_euler = (math.radians(75), 0.0, 0.0)
+    scene.camera = cam
+    world = with_nodes(bpy.data.worlds.new("W"))
+    texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
+    world.node_tree.links.new(
+        texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
+    )
+    scene.world = world
+    scene.render.filepath = str(tmp_path / "f12.exr")
+    return scene

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from blender_helpers import with_nodes
 from helpers import studiolights_dir
 
 from btf_addon.core.analytic import GGXBTF, LambertianBTF
@@ -21,7 +22,7 @@ def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
 
 
 def cycles_material(bpy, kind: str):
-    material = bpy.data.materials.new(kind)
+    material = with_nodes(bpy.data.materials.new(kind))
     nodes, links = material.node_tree.nodes, material.node_tree.links
     for node in list(nodes):
         if node.bl_idname != "ShaderNodeOutputMaterial":
@@ -41,7 +42,7 @@ def cycles_material(bpy, kind: str):
 def principled_material(bpy, metallic: float):
     """A Principled BSDF with single-scatter GGX (Cycles' default adds multiple scattering,
     which the analytic model leaves out) and no BTF: rendered by our analytic model."""
-    material = bpy.data.materials.new("principled")
+    material = with_nodes(bpy.data.materials.new("principled"))
     node = material.node_tree.nodes["Principled BSDF"]
     node.distribution = "GGX"
     node.inputs["Base Color"].default_value = (0.9, 0.6, 0.3, 1.0)
@@ -73,7 +74,7 @@ def build(bpy, tmp_path, kind: str, ground: bool):
     scene.camera = cam
     cam.location = (0.0, -4.5, 1.5)
     cam.rotation_euler = (math.radians(75.0), 0.0, 0.0)
-    world = bpy.data.worlds.new("Forest")
+    world = with_nodes(bpy.data.worlds.new("Forest"))
     texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
     texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
     world.node_tree.links.new(

@@ -120,6 +120,7 @@ def make_blend(path, script: str) -> None:
         sys.path.insert(0, {str(ROOT)!r})
         import bpy
         import btf_addon
+        from btf_addon.blender.compat import with_nodes  # new materials/worlds with nodes
         bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
         btf_addon.register()
         scene = bpy.context.scene

@@ -10,6 +10,7 @@ import bpy
 from ..core.container import write_container
 from ..core.dense import tabulate
 from ..core.presets import make_preset
+from . import compat
 from .addon import ENGINE_ID
 
 
@@ -18,7 +19,7 @@ def studiolight(name: str = "forest") -> Path:
 
 
 def btf_material(name: str, source: Path, uv_scale: float = 1.0) -> bpy.types.Material:
-    material = bpy.data.materials.new(name)
+    material = compat.with_nodes(bpy.data.materials.new(name))
     material.btf.enabled = True
     material.btf.source = str(source)
     material.btf.uv_scale = uv_scale
@@ -70,7 +71,7 @@ def build_demo_scene(data_dir: Path, resolution: tuple[int, int] = (640, 360)) -
     cam.rotation_euler = (math.radians(80.0), 0.0, 0.0)
     scene.camera = cam
 
-    world = bpy.data.worlds.new("Forest")
+    world = compat.with_nodes(bpy.data.worlds.new("Forest"))
     nodes, links = world.node_tree.nodes, world.node_tree.links
     texture = nodes.new("ShaderNodeTexEnvironment")
     texture.image = bpy.data.images.load(str(studiolight()))

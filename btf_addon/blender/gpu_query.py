@@ -42,6 +42,10 @@ class BlenderGPUEvaluator:
             with offscreen.bind():
                 fb = gpu.state.active_framebuffer_get()
                 fb.clear(color=(0.0, 0.0, 0.0, 0.0))
+                # Every query fragment must be written, whatever state an earlier draw left
+                # (Blender 4.2 leaves depth test LESS_EQUAL after a render: nothing drew).
+                gpu.state.depth_test_set("NONE")
+                gpu.state.blend_set("NONE")
                 self.shader.bind()
                 self.shader.uniform_sampler("btf_int_tables", self.int_tex)
                 self.shader.uniform_sampler("btf_float_tables", self.float_tex)

@@ -6,6 +6,8 @@ import bpy
 from bpy.props import BoolProperty, FloatProperty, PointerProperty, StringProperty
 from bpy.types import PropertyGroup
 
+from . import compat
+
 
 class BTFMaterialSettings(PropertyGroup):
     enabled: BoolProperty(
@@ -18,7 +20,7 @@ class BTFMaterialSettings(PropertyGroup):
         subtype="FILE_PATH",
         default="",
         # Blender 4.5+ warns about "//" paths unless the property says it supports them.
-        options={"PATH_SUPPORTS_BLEND_RELATIVE"} if bpy.app.version >= (4, 5, 0) else set(),
+        options=compat.path_property_options(),
         description="BTFbase material directory or .btfm file; relative paths (//) are kept "
         "relative to the .blend so render farms find the data",
     )

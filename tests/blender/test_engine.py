@@ -11,44 +11,11 @@ import shutil
 
 import numpy as np
 import pytest
-from blender_helpers import extension_submodule
-from helpers import shared_material, studiolights_dir
+from blender_helpers import extension_submodule, sphere_on_ground, with_nodes
+from helpers import shared_material
 
 from btf_addon.core.container import write_container
 from btf_addon.core.imageio import read_exr
-
-
-def build_scene(bpy, tmp_path, material_source, size=(96, 64)):
-    scene = bpy.context.scene
-    scene.render.engine = "BTF_RENDER"
-    scene.render.resolution_x, scene.render.resolution_y = size
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.btf_render.lights_total = 24
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=48, ring_count=24)
-    bpy.ops.object.shade_smooth()
-    material = bpy.data.materials.new("BTF")
-    material.btf.enabled = True
-    material.btf.source = str(material_source)
-    bpy.context.object.data.materials.append(material)
-    bpy.ops.mesh.primitive_plane_add(size=6.0, location=(0.0, 0.0, -1.0))
-    plain = bpy.data.materials.new("Plain")
-    plain.diffuse_color = (0.3, 0.6, 0.2, 1.0)
-    bpy.context.object.data.materials.append(plain)
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    scene.collection.objects.link(cam)
-    cam.location = (0.0, -5.0, 1.5)
-    cam.rotation_euler = (math.radians(75), 0.0, 0.0)
-    scene.camera = cam
-    world = bpy.data.worlds.new("W")
-    texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
-    world.node_tree.links.new(
-        texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
-    )
-    scene.world = world
-    scene.render.filepath = str(tmp_path / "f12.exr")
-    return scene
 
 
 def f12_and_reference(bpy, scene, tmp_path, engine="opencl"):
@@ -85,7 +52,7 @@ def test_f12_renders_through_opencl(bpy_module, fresh_scene, tmp_path):
     from btf_addon.core.analytic import GGXBTF
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
-    scene = build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
     rendered, reference = f12_and_reference(bpy_module, scene, tmp_path)
     assert rendered.shape == reference.shape
     np.testing.assert_allclose(rendered, reference, rtol=1e-5, atol=1e-6)
@@ -104,7 +71,7 @@ def test_f12_without_opencl_falls_back_to_glsl(
     from btf_addon.core.analytic import GGXBTF
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
-    scene = build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
     blender_output(capfd)
     rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
     assert (
@@ -125,7 +92,7 @@ def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_pat
 
     bpy = bpy_module
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
-    scene = build_scene(bpy, tmp_path, tmp_path / "ggx.btfm")
+    scene = sphere_on_ground(bpy, tmp_path, tmp_path / "ggx.btfm")
     rendered_dark, _ = f12_and_reference(bpy, scene, tmp_path, engine="glsl")
     for kind, location in (("POINT", (2.0, -2.0, 2.0)), ("SPOT", (0.0, -3.0, 3.0))):
         light = bpy.data.objects.new(kind, bpy.data.lights.new(kind, kind))
@@ -141,7 +108,7 @@ def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_pat
 def test_f12_glsl_fallback_with_measured_btf(bpy_module, fresh_scene, tmp_path, without_opencl):
     """With nearest-texel BTF lookups, pixels exactly on texel edges may pick the neighbour in
     one pipeline and not the other: allow 5% of pixels to differ, the rest must agree."""
-    scene = build_scene(bpy_module, tmp_path, shared_material("alu"))
+    scene = sphere_on_ground(bpy_module, tmp_path, shared_material("alu"))
     rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
     differs = np.abs(rendered - reference).max(axis=2) > 1e-3 * reference.max()
     assert differs.mean() < 0.05
@@ -163,10 +130,10 @@ def test_f12_reports_errors_instead_of_crashing(bpy_module, fresh_scene, tmp_pat
     cam.location = (0.0, -6.0, 0.0)
     cam.rotation_euler = (math.radians(90.0), 0.0, 0.0)
     scene.camera = cam
-    world = bpy.data.worlds.new("W")
+    world = with_nodes(bpy.data.worlds.new("W"))
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
     scene.world = world
-    material = bpy.data.materials.new("Broken")
+    material = with_nodes(bpy.data.materials.new("Broken"))
     material.btf.enabled = True
     material.btf.source = str(tmp_path / "missing.btfm")
     bpy.context.object.data.materials.append(material)
@@ -201,7 +168,7 @@ def test_f12_compile_error_is_an_error_not_a_fallback(
     monkeypatch.setattr(programs, "KERNELS_DIR", kernels)
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
-    build_scene(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
     blender_output(capfd)
     with pytest.raises(RuntimeError) as failure:
         bpy_module.ops.render.render(write_still=True)
@@ -231,7 +198,7 @@ def test_headlight_mode_lights_the_view(bpy_module, fresh_scene, tmp_path, light
     from btf_addon.core.analytic import LambertianBTF
 
     write_container(tmp_path / "white.btfm", LambertianBTF(1.0))
-    scene = build_scene(bpy_module, tmp_path, tmp_path / "white.btfm")
+    scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "white.btfm")
     scene.btf_render.lighting = lighting
     bpy_module.ops.render.render(write_still=True)
     rendered = read_exr(tmp_path / "f12.exr")
@@ -250,7 +217,7 @@ def test_f12_passes_hold_depth_normal_and_uv(bpy_module, fresh_scene, tmp_path, 
     bpy = bpy_module
     w, h = 64, 48
     write_container(tmp_path / "white.btfm", LambertianBTF(0.5))
-    scene = build_scene(bpy, tmp_path, tmp_path / "white.btfm", size=(w, h))
+    scene = sphere_on_ground(bpy, tmp_path, tmp_path / "white.btfm", size=(w, h))
     for obj in list(scene.objects):
         if obj.type == "MESH":
             bpy.data.objects.remove(obj)
@@ -312,7 +279,7 @@ def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
     from btf_addon.core.analytic import LambertianBTF
 
     write_container(tmp_path / "white.btfm", LambertianBTF(0.7))
-    scene = build_scene(bpy_module, tmp_path, tmp_path / "white.btfm")
+    scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "white.btfm")
     scene.btf_render.lights_total = 512
     bpy_module.ops.render.render(write_still=True)
     virtual = read_exr(tmp_path / "f12.exr")

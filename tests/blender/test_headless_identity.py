@@ -34,12 +34,12 @@ scene.render.resolution_x, scene.render.resolution_y = 64, 48
 scene.render.resolution_percentage = 100
 bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=32, ring_count=16)
 bpy.ops.object.shade_smooth()
-material = bpy.data.materials.new("BTF")
+material = with_nodes(bpy.data.materials.new("BTF"))
 material.btf.enabled = True
 material.btf.source = {btf!r}
 bpy.context.object.data.materials.append(material)
 bpy.ops.mesh.primitive_plane_add(size=6.0, location=(0.0, 0.0, -1.0))
-plain = bpy.data.materials.new("Plain")
+plain = with_nodes(bpy.data.materials.new("Plain"))
 plain.diffuse_color = (0.3, 0.6, 0.2, 1.0)
 bpy.context.object.data.materials.append(plain)
 cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
@@ -47,7 +47,7 @@ scene.collection.objects.link(cam)
 cam.location = (0.0, -5.0, 1.5)
 cam.rotation_euler = (math.radians(75), 0.0, 0.0)
 scene.camera = cam
-world = bpy.data.worlds.new("W")
+world = with_nodes(bpy.data.worlds.new("W"))
 texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
 texture.image = bpy.data.images.load({envmap!r})
 world.node_tree.links.new(

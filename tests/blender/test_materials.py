@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from blender_helpers import extension_submodule
+from blender_helpers import extension_submodule, with_nodes
 
 
 def _material(bpy, node_type: str | None, **inputs):
-    material = bpy.data.materials.new(node_type or "plain")
+    material = with_nodes(bpy.data.materials.new(node_type or "plain"))
     tree = material.node_tree
     for node in list(tree.nodes):
         if node.bl_idname != "ShaderNodeOutputMaterial":

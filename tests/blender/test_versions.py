@@ -91,14 +91,10 @@ def _draw_viewport(bpy, source) -> np.ndarray:
     viewport.view_draw(engine, context, depsgraph)
     assert engine.reports == [], engine.reports
     state = engine.btf_viewport
-    assert state.drawer.state.converged
-    import gpu  # importable once bpy is
-
-    # Read through a framebuffer as 32-bit floats: the output is a half-float texture.
-    with state.output.bind():
-        pixels = gpu.state.active_framebuffer_get().read_color(0, 0, 48, 32, 4, 0, "FLOAT")
-    pixels.dimensions = 32 * 48 * 4
-    return np.array(pixels, dtype=np.float32).reshape(32, 48, 4)
+    assert state.view.state.converged
+    image = state.view.read()  # the resolved output as float32, bottom row first
+    assert image.shape == (32, 48, 4)
+    return image
 
 
 @pytest.mark.parametrize("kind", ["synthetic", "measured"])

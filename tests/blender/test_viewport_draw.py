@@ -10,7 +10,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
-from blender_helpers import extension_submodule, init_gpu_module
+from blender_helpers import extension_submodule, init_gpu_module, sphere_on_ground
 
 
 def view_context(distance: float, width: int = 48, height: int = 32):
@@ -70,41 +70,15 @@ def lit_scene(bpy, tmp_path):
     """A GGX sphere (a .btfm container), a plain diffuse ground, a point light, the forest
     World and a camera: every input of the drawer (two materials' tables, Blender's lights,
     the environment's bilinear lookups behind the objects)."""
-    import math
-
-    from helpers import studiolights_dir
-
     from btf_addon.core.analytic import GGXBTF
     from btf_addon.core.container import write_container
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
-    scene = bpy.context.scene
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=32, ring_count=16)
-    bpy.ops.object.shade_smooth()
-    material = bpy.data.materials.new("BTF")
-    material.btf.enabled = True
-    material.btf.source = str(tmp_path / "ggx.btfm")
-    bpy.context.object.data.materials.append(material)
-    bpy.ops.mesh.primitive_plane_add(size=6.0, location=(0.0, 0.0, -1.0))
-    plain = bpy.data.materials.new("Plain")
-    plain.diffuse_color = (0.3, 0.6, 0.2, 1.0)
-    bpy.context.object.data.materials.append(plain)
+    scene = sphere_on_ground(bpy, tmp_path, tmp_path / "ggx.btfm", segments=32, rings=16)
     light = bpy.data.objects.new("Point", bpy.data.lights.new("Point", "POINT"))
     light.data.energy = 300.0
     light.location = (2.0, -2.0, 2.0)
     scene.collection.objects.link(light)
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    scene.collection.objects.link(cam)
-    cam.location = (0.0, -5.0, 1.5)
-    cam.rotation_euler = (math.radians(75), 0.0, 0.0)
-    scene.camera = cam
-    world = bpy.data.worlds.new("W")
-    texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
-    world.node_tree.links.new(
-        texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
-    )
-    scene.world = world
     return scene
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from blender_helpers import extension_submodule
+from blender_helpers import extension_submodule, with_nodes
 from helpers import studiolights_dir
 from wiimote_streams import (
     ACK_WRITE,
@@ -54,7 +54,7 @@ def scene_for_wiimote(bpy):
     scene.collection.objects.link(cube)
     materials = []
     for name in ("BTF A", "BTF B"):
-        mat = bpy.data.materials.new(name)
+        mat = with_nodes(bpy.data.materials.new(name))
         mat.btf.enabled = True
         mat.btf.source = f"//{name}.btfm"
         materials.append(mat)
@@ -64,7 +64,7 @@ def scene_for_wiimote(bpy):
     camera.location = (0.0, -5.0, 0.0)
     scene.collection.objects.link(camera)
     scene.camera = camera
-    world = bpy.data.worlds.new("W")
+    world = with_nodes(bpy.data.worlds.new("W"))
     nodes, links = world.node_tree.nodes, world.node_tree.links
     texture = nodes.new("ShaderNodeTexEnvironment")
     texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))

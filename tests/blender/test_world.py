@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from blender_helpers import extension_submodule
+from blender_helpers import extension_submodule, with_nodes
 from helpers import random_hemisphere, studiolights_dir
 
 from btf_addon.core.envmap import Environment
@@ -19,7 +19,7 @@ def environment_from_world(world):
 
 
 def make_world(bpy, exr_path, rotation_z_deg=0.0, strength=1.0, interpolation="Linear"):
-    world = bpy.data.worlds.new("W")
+    world = with_nodes(bpy.data.worlds.new("W"))
     nodes, links = world.node_tree.nodes, world.node_tree.links
     background = nodes["Background"]
     background.inputs["Strength"].default_value = strength
@@ -48,7 +48,7 @@ def test_world_extraction_equals_reading_the_exr_and_rotating(bpy_module, fresh_
 
 
 def test_plain_world_colour_is_a_constant_environment(bpy_module, fresh_scene):
-    world = bpy_module.data.worlds.new("Plain")  # Blender 5: worlds always have nodes
+    world = with_nodes(bpy_module.data.worlds.new("Plain"))  # Blender 5: worlds always have nodes
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1.0)
     env, messages = environment_from_world(world)
     assert messages == []
@@ -58,7 +58,7 @@ def test_plain_world_colour_is_a_constant_environment(bpy_module, fresh_scene):
 
 
 def test_unsupported_world_gives_a_message_and_a_constant(bpy_module, fresh_scene):
-    world = bpy_module.data.worlds.new("Sky")
+    world = with_nodes(bpy_module.data.worlds.new("Sky"))
     nodes = world.node_tree.nodes
     sky = nodes.new("ShaderNodeTexSky")
     world.node_tree.links.new(sky.outputs["Color"], nodes["Background"].inputs["Color"])

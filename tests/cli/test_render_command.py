@@ -55,7 +55,7 @@ def test_blend_with_relative_btf_path_and_missing_uvs(tmp_path):
         bpy.ops.mesh.primitive_plane_add(size=4.0)
         plane = bpy.context.object
         bpy.ops.mesh.uv_texture_remove()
-        material = bpy.data.materials.new("Lambert")
+        material = with_nodes(bpy.data.materials.new("Lambert"))
         material.btf.enabled = True
         material.btf.source = "//lambert.btfm"
         plane.data.materials.append(material)
@@ -63,7 +63,7 @@ def test_blend_with_relative_btf_path_and_missing_uvs(tmp_path):
         scene.collection.objects.link(cam)
         cam.location = (0.0, 0.0, 5.0)
         scene.camera = cam
-        world = bpy.data.worlds.new("W")
+        world = with_nodes(bpy.data.worlds.new("W"))
         world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
         scene.world = world
     """,

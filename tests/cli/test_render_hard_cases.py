@@ -52,7 +52,10 @@ for scale in (1e-3, 1.0, 1e4):
 def blends(tmp_path_factory):
     """Every case's .blend, built in one Blender process (this one must not import bpy)."""
     folder = tmp_path_factory.mktemp("hard")
-    parts = [f"import sys, math\nsys.path.insert(0, {str(ROOT)!r})\nimport bpy\n"]
+    parts = [
+        f"import sys, math\nsys.path.insert(0, {str(ROOT)!r})\nimport bpy\n"
+        "from btf_addon.blender.compat import with_nodes\n"
+    ]
     for name, body in CASES.items():
         parts.append(
             textwrap.dedent(f"""
@@ -63,7 +66,7 @@ def blends(tmp_path_factory):
             scene.camera = cam
             cam.location = (0.0, -6.0, 2.0)
             cam.rotation_euler = (math.radians(72.0), 0.0, 0.0)
-            world = bpy.data.worlds.new("W")
+            world = with_nodes(bpy.data.worlds.new("W"))
             world.node_tree.nodes["Background"].inputs["Color"].default_value = (*{WORLD!r}, 1)
             scene.world = world
             """)

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import bpy
 import numpy as np
 
 from ...core.colour import srgb_decode
 from ...core.envmap import Environment
+from .. import compat
 
 BLACK = (0.0, 0.0, 0.0)
 
@@ -74,7 +74,7 @@ def environment_from_world(world) -> WorldEnvironment:
         return WorldEnvironment(Environment.constant(BLACK), ["the scene has no World: black"])
     # Blender < 5 can switch a World's nodes off (then World.color lights the scene); Blender 5
     # always uses the nodes and deprecates the switch, so it is only read on older versions.
-    nodes_off = bpy.app.version < (5, 0, 0) and not world.use_nodes
+    nodes_off = compat.world_nodes_switched_off(world)
     if nodes_off or world.node_tree is None:
         return WorldEnvironment(Environment.constant(tuple(world.color)), messages)
     output = _active_output(world.node_tree)
