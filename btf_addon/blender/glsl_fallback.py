@@ -20,7 +20,12 @@ def render_glsl(engine, exported, settings: RenderSettings, w: int, h: int) -> N
         engine.report({"ERROR"}, str(exc))
         return
     cam = exported.camera
-    view = ViewAccumulation(drawer.device, w, h)
+    try:
+        view = ViewAccumulation(drawer.device, w, h)
+    except Exception as exc:  # Blender's GPUOffScreen raises a bare Exception (size, memory)
+        drawer.release()
+        engine.report({"ERROR"}, f"GLSL fallback: no {w}×{h} float buffers on the GPU ({exc})")
+        return
     try:
         view.set_lights(frame_lights(settings, exported, cam.world_from_camera[:3, 2]), BATCH)
         state = view.state

@@ -42,7 +42,12 @@ def preferred_device() -> int | None:
     the add-on runs without a preferences entry, as when a checkout registers itself)."""
     addon = bpy.context.preferences.addons.get(ADDON_PACKAGE)
     preferences = getattr(addon, "preferences", None)
-    return device_index(getattr(preferences, "opencl_device", AUTOMATIC))
+    try:
+        return device_index(getattr(preferences, "opencl_device", AUTOMATIC))
+    except ValueError:
+        # A saved device that is no longer listed (a GPU or driver removed) reads back as "":
+        # render on the automatic choice rather than fail.
+        return None
 
 
 def device_items(_self=None, _context=None) -> list[tuple[str, str, str, int]]:

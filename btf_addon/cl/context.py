@@ -40,8 +40,13 @@ def create_context(device_index: int | None = None) -> CLContext:
 
     devices = [d for p in cl.get_platforms() for d in _safe_devices(p)]
     device = devices[index]
-    context = cl.Context([device])
-    return CLContext(context, cl.CommandQueue(context), device)
+    try:
+        context = cl.Context([device])
+        return CLContext(context, cl.CommandQueue(context), device)
+    except cl.Error as exc:  # listed, but the driver refuses it (busy, out of memory, broken)
+        raise OpenCLUnavailableError(
+            f"OpenCL device {device.name.strip()} could not be opened ({exc})"
+        ) from None
 
 
 def _safe_devices(platform):

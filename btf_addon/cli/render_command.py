@@ -297,5 +297,5 @@ def _device_preference(bpy, package: str, device: int | None):
     finally:
         if created:
             addons.remove(entry)
-        else:
+        elif previous:  # "" when the saved device is no longer listed: nothing to restore
             entry.preferences.opencl_device = previous

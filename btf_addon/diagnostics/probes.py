@@ -42,11 +42,13 @@ def probe_opengl() -> dict:
 
 
 def probe_hidraw() -> dict:
-    import hid  # noqa: F401  (libusb backend; cannot see Bluetooth Wiimotes, imported to report)
-    import hidraw  # the Linux hidraw backend this add-on uses for Bluetooth HID
-
-    version = getattr(hidraw, "__version__", None) or _dist_version("hidapi")
-    return {"module": "hidraw", "hidapi_version": version}
+    # The module the Wiimote transport uses (controllers/hid_transport.py's rule, repeated: a
+    # sibling layer): Linux's `hidraw` backend sees Bluetooth HID, its libusb `hid` does not;
+    # elsewhere `hid` is the native backend, which does.
+    name = "hidraw" if sys.platform.startswith("linux") else "hid"
+    module = importlib.import_module(name)
+    version = getattr(module, "__version__", None) or _dist_version("hidapi")
+    return {"module": name, "hidapi_version": version}
 
 
 def probe_openxr() -> dict:
@@ -111,8 +113,8 @@ PROBES: dict[str, Probe] = {
         Probe(
             "hidraw",
             probe_hidraw,
-            "Install hidapi (pip install hidapi) on Linux for Wiimote support; the add-on works "
-            "without a controller.",
+            "Install hidapi (pip install hidapi; the extension bundles it) for Wiimote "
+            "support; the add-on works without a controller.",
         ),
         Probe(
             "openxr",

@@ -6,6 +6,7 @@ from __future__ import annotations
 import enum
 from dataclasses import fields
 
+import pytest
 from blender_helpers import extension_submodule
 
 
@@ -42,3 +43,26 @@ def test_a_fresh_scene_reads_back_as_the_defaults(bpy_module, fresh_scene):
     changed.to_properties(props)
     assert props.lighting == "HEADLIGHT" and props.final_mode == "SAMPLED"
     assert settings.RenderSettings.from_properties(props) == changed
+
+
+def test_a_saved_device_no_longer_listed_renders_on_the_automatic_choice(
+    bpy_module, installed, monkeypatch
+):
+    """A GPU or driver removed since the preference was saved: Blender reads the stored
+    enum value back as "" (not among the items any more). F12 must then choose automatically,
+    not fail while parsing the choice."""
+    preferences = extension_submodule("btf_addon.blender.preferences")
+    entry = bpy_module.context.preferences.addons[preferences.ADDON_PACKAGE]
+    items = preferences.device_items()
+    if len(items) < 2:
+        pytest.skip("needs one OpenCL device to save as the preference (PoCL in CI)")
+    entry.preferences.opencl_device = items[1][0]
+    assert preferences.preferred_device() == 0
+    # The device disappears: the dynamic enum's items are only "Automatic" now.
+    monkeypatch.setattr(preferences, "_device_items", [items[0]])
+    try:
+        assert entry.preferences.opencl_device == ""  # what Blender reads back
+        assert preferences.preferred_device() is None
+    finally:
+        monkeypatch.undo()
+        entry.preferences.opencl_device = preferences.AUTOMATIC
