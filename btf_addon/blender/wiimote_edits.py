@@ -14,6 +14,8 @@ Targets, in the words of issue 13:
 - lights per frame and progressive: ``scene.btf_render``;
 - orbit and zoom: the 3D viewport's view when one is given (``region_3d``), else the scene
   camera around the active object (or the origin); reset view restores what was saved at start.
+  A session that started in a 3D view and lost it (the area was closed or joined) skips them
+  with a message rather than move the camera instead.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import bpy
 from mathutils import Matrix, Quaternion, Vector
 
 from ..controllers.actions import Action, Edit
+from . import compat
 
 
 class EditSkipped(Exception):  # noqa: N818 - a message for the status line, not a failure
@@ -43,17 +46,30 @@ class ViewState:
 class EditContext:
     """Where edits land. Holds the scene and view layer by name and looks them up on every
     use: an undo (Ctrl+Z during a session) reloads the data and would leave stored
-    references dangling."""
+    references dangling. The view (``region_3d``, ``region``) is set again by the operator
+    before every poll (``set_view``): the user may close the area it belongs to at any time."""
 
     def __init__(self, scene, view_layer, region_3d=None, region=None) -> None:
         self.scene_name = scene.name
         self.view_layer_name = view_layer.name
         self.region_3d = region_3d  # a SpaceView3D's RegionView3D, None headless
         self.region = region  # its WINDOW region (for pointer rays), None headless
+        self.has_view = region_3d is not None  # started in a 3D view: view edits need one
         self.target: str | None = None  # the object the current edit acts on, by name
         self.saved_view = ViewState()
         self.help_visible = False
         self.screenshots: list[str] = []
+
+    def set_view(self, region_3d, region) -> None:
+        """The 3D view as it is now (None, None: gone; the view edits then skip)."""
+        self.region_3d, self.region = region_3d, region
+
+    def view(self):
+        """The RegionView3D the view edits act on; None headless (they use the scene camera).
+        EditSkipped when the session's 3D view is gone."""
+        if self.region_3d is None and self.has_view:
+            raise EditSkipped("the 3D view is gone (open one to use the view controls)")
+        return self.region_3d
 
     @property
     def scene(self):
@@ -187,6 +203,8 @@ def world_mapping(scene):
     world = scene.world
     if world is None or world.node_tree is None:
         raise EditSkipped("the scene has no World nodes to rotate")
+    if compat.world_nodes_switched_off(world):  # the exporter reads World.color, not the nodes
+        raise EditSkipped("the World's nodes are switched off (turn on Use Nodes to rotate it)")
     tree = world.node_tree
     for node in tree.nodes:
         if node.bl_idname != "ShaderNodeTexEnvironment":
@@ -223,8 +241,8 @@ def _pivot(ctx: EditContext) -> Vector:
 
 def orbit(ctx: EditContext, degrees: float, axis: str) -> None:
     angle = math.radians(degrees)
-    if ctx.region_3d is not None:
-        r3d = ctx.region_3d
+    r3d = ctx.view()
+    if r3d is not None:
         if axis == "YAW":
             # The eye sits at view_rotation @ (0, 0, distance): turning it by +angle about Z
             # moves the eye to its right, as the camera below.
@@ -247,8 +265,9 @@ def orbit(ctx: EditContext, degrees: float, axis: str) -> None:
 def zoom(ctx: EditContext, stops: float) -> None:
     """``stops`` > 0 zooms in: the distance to the pivot is divided by 2**stops."""
     factor = 2.0 ** (-stops)
-    if ctx.region_3d is not None:
-        ctx.region_3d.view_distance = max(1e-3, ctx.region_3d.view_distance * factor)
+    r3d = ctx.view()
+    if r3d is not None:
+        r3d.view_distance = max(1e-3, r3d.view_distance * factor)
         return
     camera = ctx.scene.camera
     if camera is None:
@@ -262,13 +281,14 @@ def zoom(ctx: EditContext, stops: float) -> None:
 
 def reset_view(ctx: EditContext) -> None:
     saved = ctx.saved_view
+    r3d = ctx.view()
     if saved.camera_matrix is not None and ctx.scene.camera is not None:
         ctx.scene.camera.matrix_world = saved.camera_matrix
-    if saved.view is not None and ctx.region_3d is not None:
+    if saved.view is not None and r3d is not None:
         location, rotation, distance = saved.view
-        ctx.region_3d.view_location = location
-        ctx.region_3d.view_rotation = rotation
-        ctx.region_3d.view_distance = distance
+        r3d.view_location = location
+        r3d.view_rotation = rotation
+        r3d.view_distance = distance
 
 
 def screenshot(ctx: EditContext) -> str:
@@ -284,7 +304,10 @@ def screenshot(ctx: EditContext) -> str:
 
 
 # --------------------------------------------------------------------- entry
-LIGHTS_RANGE = (1, 512)  # scene.btf_render.lights_per_redraw's limits
+def lights_range(settings) -> tuple[int, int]:
+    """``lights_per_redraw``'s limits, as the property declares them."""
+    prop = settings.bl_rna.properties["lights_per_redraw"]
+    return prop.hard_min, prop.hard_max
 
 
 def apply_edit(ctx: EditContext, edit: Edit) -> str:
@@ -307,7 +330,7 @@ def apply_edit(ctx: EditContext, edit: Edit) -> str:
         zoom(ctx, amount if a is Action.ZOOM_IN else -amount)
     elif a in (Action.LIGHTS_MORE, Action.LIGHTS_FEWER):
         step = round(amount) * (1 if a is Action.LIGHTS_MORE else -1)
-        low, high = LIGHTS_RANGE
+        low, high = lights_range(settings)
         settings.lights_per_redraw = min(high, max(low, settings.lights_per_redraw + step))
         return f"lights per redraw {settings.lights_per_redraw}"
     elif a in (Action.EXPOSURE_UP, Action.EXPOSURE_DOWN):

@@ -9,8 +9,9 @@ from mathutils import Vector
 
 def pointer_ray(ctx, pointer: tuple[float, float]) -> tuple[Vector, Vector] | None:
     """(origin, direction) in world space through ``pointer`` ((x, y) in −1..1 of the view):
-    the 3D viewport's view when there is one, else the scene camera's frame."""
-    if ctx.region is not None and ctx.region_3d is not None:
+    the 3D viewport's view when there is one, else the scene camera's frame. EditSkipped when
+    the session's 3D view is gone (``ctx.view()``)."""
+    if ctx.view() is not None and ctx.region is not None:
         from bpy_extras import view3d_utils
 
         xy = ((pointer[0] + 1) / 2 * ctx.region.width, (pointer[1] + 1) / 2 * ctx.region.height)

@@ -72,6 +72,7 @@ class WiimoteSession:
         self.messages: list[str] = []
         self.applied: list[tuple[Edit, str]] = []
         self.ended: str | None = None
+        self.closed = False  # the transport was released (``stop``)
         self._events_seen = 0
 
     @property
@@ -93,8 +94,8 @@ class WiimoteSession:
             if edit.end:
                 self._undo(f"Wiimote: {label}")
                 continue
-            self.ctx.target = self._target(edit)
             try:
+                self.ctx.target = self._target(edit)
                 text = apply_edit(self.ctx, edit)
             except EditSkipped as skipped:
                 self._say(f"{label}: {skipped}")
@@ -166,13 +167,21 @@ class WiimoteSession:
         raise ControllerError(f"the stream did not end within {max_steps} polls")
 
     def stop(self) -> None:
-        """End on the user's request: close gestures, LEDs off, release the device."""
-        if self.ended is None:
-            self._apply(self.controls.finish(self.transport.now()))
-            try:
-                self.wiimote.set_rumble(False)
-                self.wiimote.set_leds(0)
-            except ControllerError:
-                pass
-            self.ended = "stopped"
-        self.transport.close()
+        """End the session: on the user's request (still running) close the gestures and turn
+        the LEDs off; in any case release the device (or recording file). Idempotent: every
+        way a session ends calls it."""
+        try:
+            if self.ended is None:
+                try:
+                    self._apply(self.controls.finish(self.transport.now()))
+                    try:
+                        self.wiimote.set_rumble(False)
+                        self.wiimote.set_leds(0)
+                    except ControllerError:
+                        pass
+                finally:
+                    self.ended = "stopped"
+        finally:
+            if not self.closed:
+                self.closed = True
+                self.transport.close()

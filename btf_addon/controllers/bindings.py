@@ -10,6 +10,8 @@ Kinds:
 - ``HOLD``: a continuous action while the trigger (and modifiers) are held, ``rate`` units/s.
 - ``AXIS``: continuous, ``rate`` units/s at full deflection (``full_scale``: 1 for a stick, 90°
   for tilt), zero inside ``dead_zone`` (same units as the axis), proportional outside it.
+A discrete action (a step, a toggle) takes ``PRESS``; a continuous one (``actions.CONTINUOUS``)
+``HOLD`` or ``AXIS``: a binding of another kind is refused when it is made.
 
 A button binding applies only when the modifier buttons held (buttons that are a modifier of
 some binding) are exactly its ``modifiers``: with B held, D-pad Left rotates the environment
@@ -23,7 +25,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from enum import Enum
 
-from .actions import Action
+from .actions import CONTINUOUS, Action
 from .transport import ControllerError
 
 BUTTONS = ("A", "B", "ONE", "TWO", "PLUS", "MINUS", "HOME", "LEFT", "RIGHT", "UP", "DOWN", "C", "Z")
@@ -35,6 +37,12 @@ class Kind(Enum):
     PRESS = 1
     HOLD = 2
     AXIS = 3
+
+
+#: The kinds that fit a discrete action (one edit per press) and a continuous one (a gesture
+#: of edits, closed when it ends).
+DISCRETE_KINDS = frozenset({Kind.PRESS})
+CONTINUOUS_KINDS = frozenset({Kind.HOLD, Kind.AXIS})
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,14 @@ class Binding:
     axis: str = ""
 
     def __post_init__(self) -> None:
+        continuous = self.action in CONTINUOUS
+        fitting = CONTINUOUS_KINDS if continuous else DISCRETE_KINDS
+        if self.kind not in fitting:
+            kinds = " or ".join(sorted(k.name for k in fitting))
+            raise ControllerError(
+                f"a {self.kind.name} binding cannot drive {self.action.name}, a "
+                f"{'continuous' if continuous else 'discrete'} action: use {kinds}"
+            )
         valid = AXES if self.kind is Kind.AXIS else BUTTONS
         if self.input not in valid:
             raise ControllerError(f"{self.kind.name} binding input must be one of {valid}")

@@ -130,6 +130,7 @@ class HidTransport:
         self._pad_to = pad_to
         self._now = time.monotonic()
         self._nonblocking = False
+        self._closed = False
 
     def write(self, data: bytes) -> None:
         try:
@@ -158,7 +159,10 @@ class HidTransport:
         return self._now
 
     def close(self) -> None:
-        self._device.close()
+        """Release the device; a second call does nothing."""
+        if not self._closed:
+            self._closed = True
+            self._device.close()
 
 
 def open_wiimote(

@@ -145,12 +145,22 @@ class ReplayTransport:
 
 class RecordingTransport:
     """Wraps a transport and writes every report in and out to a JSONL file (the format above),
-    with ``t`` relative to the first report: a user's session for a bug report."""
+    with ``t`` relative to the first report: a user's session for a bug report. Owns ``inner``:
+    ``close`` closes it, and so does a file that cannot be opened (ControllerError)."""
 
     def __init__(self, inner: Transport, out: str | Path | TextIO) -> None:
         self._inner = inner
-        self._file = open(out, "w", encoding="utf-8") if isinstance(out, str | Path) else out
         self._owns = isinstance(out, str | Path)
+        if self._owns:
+            try:
+                out = open(out, "w", encoding="utf-8")
+            except OSError as exc:  # the device is open: release it, say what to change
+                inner.close()
+                raise ControllerError(
+                    f"cannot write the session recording {out} ({exc.strerror or exc}): save "
+                    "the .blend in a writable folder or turn off Record Sessions"
+                ) from exc
+        self._file = out
         self._t0: float | None = None
 
     def _log(self, direction: str, data: bytes) -> None:

@@ -399,3 +399,314 @@ def test_bindings_are_saved_and_restored_with_the_preferences(bpy_module, instal
         prefs.bindings.clear()
         prefs.ir_sensitivity = 3
         bpy.ops.wm.save_userpref()
+
+
+# ------------------------------------------------- the operator's life cycle, without a window
+# Background Blender runs ``execute`` only and fires no timers: the interactive path (invoke,
+# modal, cancel) is driven here with a stand-in operator that borrows the real methods, a
+# window manager that passes timers through to Blender's and records modal handlers, and a
+# screen of stand-in 3D view areas.
+
+
+class FakeArea:
+    type = "VIEW_3D"
+
+    def __init__(self) -> None:
+        from mathutils import Quaternion, Vector
+
+        self.redraws = 0
+        self.region_3d = type("R3D", (), {})()
+        self.region_3d.view_location = Vector()
+        self.region_3d.view_rotation = Quaternion()
+        self.region_3d.view_distance = 10.0
+        self.regions = [type("Region", (), {"type": "WINDOW", "width": 800, "height": 600})()]
+        self.spaces = type("Spaces", (), {"active": type("Space", (), {})()})()
+        self.spaces.active.region_3d = self.region_3d
+
+    def tag_redraw(self) -> None:
+        self.redraws += 1
+
+    def as_pointer(self) -> int:
+        return id(self)
+
+
+class FakeWindowManager:
+    def __init__(self, wm) -> None:
+        self.wm, self.live, self.handlers = wm, [], []
+
+    def event_timer_add(self, step, window=None):
+        timer = self.wm.event_timer_add(step, window=window)
+        self.live.append(timer)
+        return timer
+
+    def event_timer_remove(self, timer) -> None:
+        self.wm.event_timer_remove(timer)
+        self.live = [t for t in self.live if t != timer]
+
+    def modal_handler_add(self, operator) -> bool:
+        self.handlers.append(operator)
+        return True
+
+
+class FakeContext:
+    def __init__(self, bpy, areas) -> None:
+        self.scene, self.view_layer = bpy.context.scene, bpy.context.view_layer
+        self.window_manager = FakeWindowManager(bpy.context.window_manager)
+        self.screen = type("Screen", (), {"areas": areas})()
+        self.area = self.window = None
+
+
+class Event:
+    def __init__(self, type_: str) -> None:
+        self.type = type_
+
+
+def fake_operator(op_mod, replay_path: str = "", realtime: bool = True):
+    cls = op_mod.BTF_OT_wiimote_control
+    names = ("execute", "invoke", "modal", "cancel", "_session", "_finish", "_cleanup")
+    methods = {name: cls.__dict__[name] for name in (*names, "_report_end") if name in cls.__dict__}
+
+    def report(self, kind, text) -> None:
+        self.reports.append((next(iter(kind)), text))
+
+    operator = type("FakeOperator", (), {**methods, "report": report})()
+    operator.replay_path, operator.realtime, operator.reports = replay_path, realtime, []
+    return operator
+
+
+def _end_any_session(op_mod) -> None:
+    session = op_mod._running.get("session")
+    op_mod._running.clear()
+    if session is not None:
+        session.stop()
+    extension_submodule("btf_addon.blender.wiimote_overlay").hide()
+
+
+@pytest.fixture
+def wiimote_operator(bpy_module, fresh_scene):
+    """The operator module, with no live session before and after the test."""
+    op_mod = extension_submodule("btf_addon.blender.wiimote_operator")
+    _end_any_session(op_mod)
+    yield op_mod
+    _end_any_session(op_mod)
+
+
+@pytest.fixture
+def opened(wiimote_operator, monkeypatch):
+    """Every transport the operator opens, and every session it makes."""
+    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
+    found = {"transports": [], "sessions": []}
+
+    class Replay(wiimote_operator.ReplayTransport):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            found["transports"].append(self)
+
+    class Session(session_mod.WiimoteSession):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            found["sessions"].append(self)
+
+    monkeypatch.setattr(wiimote_operator, "ReplayTransport", Replay)
+    monkeypatch.setattr(wiimote_operator, "WiimoteSession", Session)
+    return found
+
+
+def closed(transport) -> bool:
+    return transport._closed
+
+
+def test_replay_execute_releases_the_recording(bpy_module, opened, wiimote_operator, tmp_path):
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    path = tmp_path / "session.jsonl"
+    dump(records(*START, *press(0.5, RIGHT)), path)
+    assert bpy.ops.btf.wiimote_control(replay_path=str(path)) == {"FINISHED"}
+    (transport,) = opened["transports"]
+    assert closed(transport) and opened["sessions"][0].closed
+    assert wiimote_operator._running == {}  # nothing keeps the ended session alive
+
+
+def test_a_failing_start_closes_the_transport(
+    bpy_module, opened, wiimote_operator, tmp_path, monkeypatch
+):
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    path = tmp_path / "session.jsonl"
+    dump(records(*START), path)
+    errors = extension_submodule("btf_addon.controllers.transport")
+
+    def start(self) -> None:
+        raise errors.ControllerError("the Wiimote did not answer")
+
+    monkeypatch.setattr(wiimote_operator.WiimoteSession, "start", start)
+    with pytest.raises(RuntimeError, match="did not answer"):
+        bpy.ops.btf.wiimote_control(replay_path=str(path))
+    (transport,) = opened["transports"]
+    assert closed(transport)
+
+
+def test_a_binding_whose_kind_does_not_fit_its_action_is_reported(
+    bpy_module, opened, wiimote_operator, tmp_path
+):
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
+    errors = extension_submodule("btf_addon.controllers.transport")
+    wiimote_prefs = prefs.wiimote_preferences()
+    assert bpy.ops.btf.wiimote_reset_bindings() == {"FINISHED"}
+    path = tmp_path / "s.jsonl"
+    dump(records(*START, *press(0.5, RIGHT)), path)
+    try:
+        assert wiimote_prefs.bindings[1].action == "NEXT_MATERIAL"
+        wiimote_prefs.bindings[1].kind = "HOLD"  # a toggle per poll while held
+        message = r"Wiimote binding 2: a HOLD binding cannot drive NEXT_MATERIAL"
+        with pytest.raises(errors.ControllerError, match=message):
+            prefs.current_bindings()
+        with pytest.raises(RuntimeError, match=message):
+            bpy.ops.btf.wiimote_control(replay_path=str(path))
+        assert opened["transports"] == []  # the bindings are read before anything is opened
+        wiimote_prefs.bindings[1].kind = "PRESS"
+        wiimote_prefs.bindings[16].kind = "PRESS"  # Zoom in on C: a gesture without an end
+        assert wiimote_prefs.bindings[16].action == "ZOOM_IN"
+        with pytest.raises(errors.ControllerError, match="PRESS binding cannot drive ZOOM_IN"):
+            prefs.current_bindings()
+    finally:
+        wiimote_prefs.bindings.clear()
+
+
+def test_modal_session_ends_on_disconnect_and_releases_the_device(
+    bpy_module, opened, wiimote_operator, tmp_path
+):
+    bpy = bpy_module
+    cube, (_, mat_b), _ = scene_for_wiimote(bpy)
+    path = tmp_path / "s.jsonl"
+    dump(records(*START, *press(0.5, RIGHT)), path)
+    area = FakeArea()
+    context = FakeContext(bpy, [area])
+    operator = fake_operator(wiimote_operator, str(path), realtime=False)
+    assert operator.invoke(context, Event("NONE")) == {"RUNNING_MODAL"}
+    assert context.window_manager.handlers == [operator] and context.window_manager.live
+    assert operator.modal(context, Event("MOUSEMOVE")) == {"PASS_THROUGH"}
+    # One poll reads the whole recording, then its end: the Wiimote "went away".
+    assert operator.modal(context, Event("TIMER")) == {"FINISHED"}
+    assert cube.material_slots[0].material == mat_b
+    (transport,) = opened["transports"]
+    assert closed(transport)
+    assert wiimote_operator._running == {} and context.window_manager.live == []
+    assert wiimote_operator.last_message[0].startswith("Recording played to the end")
+    assert area.redraws >= 1
+
+
+def test_cancel_ends_the_session_and_a_new_one_can_start(
+    bpy_module, opened, wiimote_operator, tmp_path
+):
+    """File > Open/New/Revert end a modal operator through ``cancel`` (no event)."""
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    overlay = extension_submodule("btf_addon.blender.wiimote_overlay")
+    path = tmp_path / "s.jsonl"
+    dump(records(*START, (60.0, report_0x37())), path)  # realtime: still running in a minute
+    context = FakeContext(bpy, [FakeArea()])
+    operator = fake_operator(wiimote_operator, str(path))
+    assert operator.invoke(context, Event("NONE")) == {"RUNNING_MODAL"}
+    assert "session" in wiimote_operator._running and overlay._source is not None
+    operator.cancel(context)
+    (transport,) = opened["transports"]
+    assert closed(transport) and opened["sessions"][0].ended == "stopped"
+    assert wiimote_operator._running == {} and context.window_manager.live == []
+    assert overlay._source is None
+    # The panel offers a new session, and one starts.
+    again = fake_operator(wiimote_operator, str(path))
+    assert again.invoke(context, Event("NONE")) == {"RUNNING_MODAL"}
+    assert wiimote_operator._running["session"] is opened["sessions"][1]
+    # Disabling the add-on ends it; the modal handler Blender still holds then cancels
+    # itself on its next event instead of failing.
+    wiimote_operator.unregister()
+    try:
+        assert closed(opened["transports"][1]) and wiimote_operator._running == {}
+        assert again.modal(context, Event("TIMER")) == {"CANCELLED"}
+        assert context.window_manager.live == [] and overlay._source is None
+    finally:
+        wiimote_operator.register()
+
+
+def test_modal_polls_look_the_view_up_again_and_redraw_only_on_change(
+    bpy_module, opened, wiimote_operator, tmp_path
+):
+    import time
+
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    actions = extension_submodule("btf_addon.controllers.actions")
+    path = tmp_path / "s.jsonl"
+    dump(records(*START, (60.0, report_0x37())), path)
+    area = FakeArea()
+    context = FakeContext(bpy, [area])
+    operator = fake_operator(wiimote_operator, str(path))
+    assert operator.invoke(context, Event("NONE")) == {"RUNNING_MODAL"}
+    session = wiimote_operator._running["session"]
+    time.sleep(0.05)  # the start-up reports are due
+    assert operator.modal(context, Event("TIMER")) == {"PASS_THROUGH"}
+    redraws = area.redraws
+    for _ in range(5):  # idle: nothing changed, nothing redrawn
+        assert operator.modal(context, Event("TIMER")) == {"PASS_THROUGH"}
+    assert area.redraws == redraws
+    # The user closes the 3D view: the next poll finds none, and the view edits skip.
+    context.screen.areas = []
+    assert operator.modal(context, Event("TIMER")) == {"PASS_THROUGH"}
+    assert session.ctx.region_3d is None and session.ctx.region is None
+    camera = bpy.context.scene.camera.matrix_world.copy()
+    for edit in (
+        actions.Edit(1.0, actions.Action.ORBIT_CAMERA, 10.0, "YAW"),
+        actions.Edit(1.0, actions.Action.ZOOM_IN, 1.0),
+        actions.Edit(1.0, actions.Action.RESET_VIEW),
+    ):
+        with pytest.raises(edits.EditSkipped, match="3D view is gone"):
+            edits.apply_edit(session.ctx, edit)
+    assert bpy.context.scene.camera.matrix_world == camera  # not the camera instead
+    # A 3D view again (another area): found on the next poll, and orbit turns it.
+    other = FakeArea()
+    context.screen.areas = [other]
+    assert operator.modal(context, Event("TIMER")) == {"PASS_THROUGH"}
+    assert session.ctx.region_3d is other.region_3d
+    edits.apply_edit(session.ctx, actions.Edit(1.0, actions.Action.ORBIT_CAMERA, 10.0, "YAW"))
+    assert other.region_3d.view_rotation != area.region_3d.view_rotation
+    assert operator.modal(context, Event("ESC")) == {"FINISHED"}
+    assert closed(opened["transports"][0]) and wiimote_operator._running == {}
+
+
+def test_environment_rotation_skips_a_world_with_its_nodes_switched_off(
+    bpy_module, fresh_scene, monkeypatch
+):
+    bpy = bpy_module
+    _, _, mapping = scene_for_wiimote(bpy)
+    world = bpy.context.scene.world
+    world.node_tree.nodes.remove(mapping)  # unlinked: a rotation would insert nodes
+    compat = extension_submodule("btf_addon.blender.compat")
+    if compat.at_least(5, 0):  # 5.0 always uses the nodes: the switch as 4.2 to 4.5 have it
+        monkeypatch.setattr(compat, "world_nodes_switched_off", lambda w: w == world)
+    else:
+        world.use_nodes = False
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    actions = extension_submodule("btf_addon.controllers.actions")
+    ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
+    before = len(world.node_tree.nodes)
+    with pytest.raises(edits.EditSkipped, match="nodes are switched off"):
+        edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.ROTATE_ENVIRONMENT, 10.0))
+    assert len(world.node_tree.nodes) == before
+
+
+def test_lights_per_redraw_stays_within_the_property_limits(bpy_module, fresh_scene):
+    bpy = bpy_module
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    actions = extension_submodule("btf_addon.controllers.actions")
+    settings = bpy.context.scene.btf_render
+    prop = settings.bl_rna.properties["lights_per_redraw"]
+    assert edits.lights_range(settings) == (prop.hard_min, prop.hard_max)
+    ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
+    settings.lights_per_redraw = prop.hard_max - 1
+    for _ in range(3):
+        edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.LIGHTS_MORE))
+    assert settings.lights_per_redraw == prop.hard_max

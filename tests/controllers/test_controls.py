@@ -135,6 +135,30 @@ def test_bindings_are_data_and_validated():
     assert default_bindings()[7].describe() == "B + Left (hold)"
 
 
+@pytest.mark.parametrize(
+    ("action", "input_", "kind", "message"),
+    [
+        # Hold or axis on a discrete action: one discrete edit (an undo step, a toggle) per report.
+        (Action.NEXT_MATERIAL, "A", Kind.HOLD, "HOLD binding cannot drive NEXT_MATERIAL"),
+        (Action.HELP_TOGGLE, "STICK_X", Kind.AXIS, "AXIS binding cannot drive HELP_TOGGLE"),
+        # A press on a continuous action: a gesture that never ends.
+        (Action.ZOOM_IN, "C", Kind.PRESS, "PRESS binding cannot drive ZOOM_IN"),
+        (Action.ORBIT_CAMERA, "A", Kind.PRESS, "PRESS binding cannot drive ORBIT_CAMERA"),
+    ],
+)
+def test_a_binding_kind_must_fit_its_action(action, input_, kind, message):
+    with pytest.raises(ControllerError, match=message):
+        Binding(action, input_, kind)
+    with pytest.raises(ControllerError, match=message):
+        Binding.from_dict({"action": action.name, "input": input_, "kind": kind.name})
+
+
+def test_every_fitting_kind_is_accepted():
+    assert Binding(Action.NEXT_MATERIAL, "A", Kind.PRESS, ("B",)).kind is Kind.PRESS  # a combo
+    assert Binding(Action.ROTATE_ENVIRONMENT, "LEFT", Kind.HOLD).kind is Kind.HOLD
+    assert Binding(Action.ROTATE_OBJECT, "ROLL", Kind.AXIS, full_scale=90.0).kind is Kind.AXIS
+
+
 def test_replay_stream_to_edits():
     # The full stack: hand-written reports → replay → driver → controls.
     b_right = "0204"  # Right (0x0200) + B (0x0004)

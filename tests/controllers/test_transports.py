@@ -6,6 +6,7 @@ import errno
 import io
 import os
 import sys
+from types import SimpleNamespace
 
 import pytest
 
@@ -140,3 +141,41 @@ def test_permission_problem_suggests_a_udev_rule(tmp_path):
     assert "udev rule" in str(err) and 'KERNELS=="0005:057E:0306.*"' in str(err)
     other = hid_transport.diagnose_open_failure(b"/dev/hidraw3", OSError("open failed"), "/x")
     assert type(other) is ControllerError and "could not open the Wiimote" in str(other)
+
+
+def test_an_unwritable_recording_closes_the_device_and_says_so(tmp_path):
+    inner = replay.ReplayTransport([replay.Record(0.0, replay.IN, b"\x30\x00\x00")])
+    with pytest.raises(ControllerError, match="cannot write the session recording"):
+        replay.RecordingTransport(inner, tmp_path / "no such folder" / "s.jsonl")
+    with pytest.raises(ControllerDisconnectedError, match="closed"):
+        inner.read(0)  # released
+
+
+class FakeDevice:
+    """What ``hidraw.device()`` returns, for the open path (no Wiimote on these machines)."""
+
+    def __init__(self) -> None:
+        self.closes = 0
+
+    def open_path(self, path) -> None:
+        self.path = path
+
+    def close(self) -> None:
+        self.closes += 1
+
+
+def test_open_wiimote_with_an_unwritable_recording_releases_the_device(tmp_path, monkeypatch):
+    device = FakeDevice()
+    module = SimpleNamespace(
+        enumerate=lambda vid, pid: [{"path": b"/dev/hidraw-test"}] if pid == 0x0306 else [],
+        device=lambda: device,
+    )
+    monkeypatch.setattr(hid_transport, "hid_module", lambda: module)
+    monkeypatch.setattr(hid_transport, "check_kernel_driver", lambda path: None)
+    with pytest.raises(ControllerError, match="cannot write the session recording"):
+        hid_transport.open_wiimote(record_to=tmp_path / "missing" / "s.jsonl")
+    assert device.closes == 1
+    transport = hid_transport.open_wiimote(record_to=tmp_path / "s.jsonl")
+    transport.close()
+    transport.close()  # a second close (every way a session ends closes) does nothing more
+    assert device.closes == 2 and (tmp_path / "s.jsonl").exists()
