@@ -20,7 +20,7 @@ import numpy as np
 
 from .device import DrawState
 from .interface import ShaderInterface
-from .query import compile_program, create_gl_context
+from .query import compile_program, create_gl_context, make_current
 
 _TARGET_DTYPES = {"RGBA32F": ("f4", np.float32), "RGBA16F": ("f2", np.float16)}
 _DEPTH_FUNCS = {"LESS": "<", "EQUAL": "=="}
@@ -74,8 +74,7 @@ class ModernGLDevice:
         self._programs: dict[str, _Program] = {}
 
     def _activate(self) -> None:
-        """Make this adapter's context current (moderngl's enter without its exit)."""
-        self.ctx.mglo.__enter__()
+        make_current(self.ctx)
 
     def program(self, interface: ShaderInterface) -> _Program:
         if interface.name not in self._programs:

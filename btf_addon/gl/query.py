@@ -38,6 +38,14 @@ def create_gl_context():
         raise RuntimeError(f"no headless OpenGL context through EGL ({exc})") from None
 
 
+def make_current(ctx) -> None:
+    """Make ``ctx`` the current OpenGL context. moderngl sends every call to whichever context
+    is current, so each user of a context makes it current before its work. moderngl's own
+    ``with ctx`` is not used: its exit leaves no context current, which Blender's own drawing
+    (epoxy) aborts on."""
+    ctx.mglo.__enter__()
+
+
 def compile_program(ctx, interface=QUERY_SHADER):
     import moderngl
 
@@ -67,6 +75,7 @@ class GLSLEvaluator:
 
     def __init__(self, btf: BTF, ctx=None):
         self.ctx = ctx or create_gl_context()
+        make_current(self.ctx)
         self.int_tex, self.float_tex = upload_tables(self.ctx, btf)
         self.program = compile_program(self.ctx)
         quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
@@ -77,6 +86,7 @@ class GLSLEvaluator:
                 self.program[name].value = slot
 
     def __call__(self, q: Queries) -> np.ndarray:
+        make_current(self.ctx)
         n = len(q.uv)
         a, b, (w, h) = query_textures(q)
         tex_a = self.ctx.texture((w, h), 4, a.tobytes(), dtype="f4")

@@ -158,3 +158,21 @@ def test_glsl_refuses_to_build_without_the_layout(gl_ctx, tmp_path):
     assert len(stripped) < len(fs)  # the layout lines were there and are gone
     with pytest.raises(moderngl.Error, match="packed-layout defines missing"):
         gl_ctx.program(vertex_shader=vs, fragment_shader=stripped)
+
+
+def test_an_evaluator_draws_in_its_own_context_after_another_was_made(gl_ctx, rng):
+    """moderngl draws into whichever context is current: a second context made after the
+    evaluator (another evaluator, a standalone renderer) must not receive its work."""
+    from btf_addon.gl.query import create_gl_context, glsl_btf
+
+    btf = GGXBTF((0.9, 0.6, 0.3), 0.4)
+    q = random_queries(rng, 2_000)
+    first = glsl_btf(btf, gl_ctx)
+    other = create_gl_context()  # now current
+    try:
+        glsl_btf(LambertianBTF(0.5), other).evaluate_angles(q)
+        got, want = first.evaluate_angles(q), btf.evaluate_angles(q)
+    finally:
+        other.release()
+    # as test_glsl_analytic_presets_match
+    np.testing.assert_allclose(got, want, rtol=1e-3, atol=1e-5 * float(want.max()))
