@@ -62,11 +62,18 @@ def test_blender_shaders_see_the_python_layout(bpy_module, fresh_scene, tmp_path
     quad = [(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)]
     batch = batch_for_shader(shader, "TRIS", {"pos": quad})
     offscreen = gpu.types.GPUOffScreen(len(names), 1, format="RGBA32F")
+    # Every declared sampler gets a texture although the probe reads none, and the state a
+    # render left is reset: Blender 5.3 crashed (segfault) drawing this probe without both.
+    dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
     try:
         with offscreen.bind():
             fb = gpu.state.active_framebuffer_get()
             fb.clear(color=(-1.0, 0.0, 0.0, 0.0))
+            gpu.state.depth_test_set("NONE")
+            gpu.state.blend_set("NONE")
             shader.bind()
+            for _slot, _kind, name in probe.samplers:
+                shader.uniform_sampler(name, dummy)
             batch.draw(shader)
             pixels = fb.read_color(0, 0, len(names), 1, 4, 0, "FLOAT")
         pixels.dimensions = len(names) * 4
