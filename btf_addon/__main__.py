@@ -4,4 +4,9 @@ import sys
 
 from .cli.main import main
 
-sys.exit(main())
+code = main()
+if "bpy" in sys.modules:  # Blender as a module (render): its teardown differs per version
+    from .blender.compat import exit_python
+
+    exit_python(code)
+sys.exit(code)

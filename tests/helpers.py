@@ -127,6 +127,7 @@ def make_blend(path, script: str) -> None:
     """)
         + textwrap.dedent(script)
         + f"\nbpy.ops.wm.save_as_mainfile(filepath={str(path)!r})\n"
+        + "from btf_addon.blender.compat import exit_python\nexit_python(0)\n"
     )
     run_python("-c", code)
 

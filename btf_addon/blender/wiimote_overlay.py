@@ -34,6 +34,7 @@ def _draw() -> None:
     shader = gpu.shader.from_builtin("UNIFORM_COLOR")
     quad = ((x0, y0), (x0 + width, y0), (x0, y0 + height), (x0 + width, y0 + height))
     batch = batch_for_shader(shader, "TRI_STRIP", {"pos": quad})
+    gpu.state.depth_test_set("NONE")  # whatever an earlier draw left (4.2: LESS_EQUAL)
     gpu.state.blend_set("ALPHA")
     shader.uniform_float("color", (0.0, 0.0, 0.0, 0.6))
     batch.draw(shader)

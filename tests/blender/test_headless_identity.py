@@ -74,13 +74,16 @@ for blend, out in {jobs!r}:
     bpy.ops.wm.open_mainfile(filepath=blend)
     scene = bpy.context.scene
     image = scene.render.image_settings
-    image.media_type = "IMAGE"
+    if hasattr(image, "media_type"):  # Blender 5: a multilayer EXR or video first
+        image.media_type = "IMAGE"
     if out.endswith(".exr"):
         image.file_format, image.color_mode, image.color_depth = "OPEN_EXR", "RGBA", "32"
     else:
         image.file_format, image.color_mode, image.color_depth = "PNG", "RGBA", "8"
     scene.render.filepath = out
     bpy.ops.render.render(write_still=True)
+import importlib
+importlib.import_module({module!r} + ".btf_addon.blender.compat").exit_python(0)
 """
 
 

@@ -390,6 +390,8 @@ def test_bindings_are_saved_and_restored_with_the_preferences(bpy_module, instal
             "p = wiimote_preferences.wiimote_preferences()\n"
             "b = wiimote_preferences.current_bindings()[8]\n"
             "print('RESTORED', len(p.bindings), b.action.name, b.input, b.rate, p.ir_sensitivity)\n"
+            "from bl_ext.user_default.btf_materials.btf_addon.blender import compat\n"
+            "compat.exit_python(0)\n"
         )
         proc = subprocess.run(
             [sys.executable, "-c", code], env=dict(os.environ), capture_output=True, text=True
