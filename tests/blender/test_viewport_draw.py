@@ -10,29 +10,13 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
-from blender_helpers import extension_submodule, init_gpu_module, sphere_on_ground
-
-
-def view_context(distance: float, width: int = 48, height: int = 32):
-    import mathutils  # only importable once bpy is
-
-    view = mathutils.Matrix.Translation((0.0, 0.0, -distance))
-    proj = mathutils.Matrix(((1.5, 0, 0, 0), (0, 2.25, 0, 0), (0, 0, -1.002, -0.2), (0, 0, -1, 0)))
-    region_data = SimpleNamespace(
-        perspective_matrix=proj @ view, view_matrix=view, is_perspective=True
-    )
-    return SimpleNamespace(
-        region=SimpleNamespace(width=width, height=height), region_data=region_data
-    )
-
-
-def stand_in_engine():
-    engine = SimpleNamespace(redraws=0, reports=[])
-    engine.bind_display_space_shader = lambda scene: None
-    engine.unbind_display_space_shader = lambda: None
-    engine.tag_redraw = lambda: setattr(engine, "redraws", engine.redraws + 1)
-    engine.report = lambda kind, message: engine.reports.append(message)
-    return engine
+from blender_helpers import (
+    extension_submodule,
+    init_gpu_module,
+    sphere_on_ground,
+    stand_in_engine,
+    view_context,
+)
 
 
 def test_progressive_viewport_accumulates_and_restarts(bpy_module, fresh_scene):
