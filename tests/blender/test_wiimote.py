@@ -375,6 +375,10 @@ def test_bindings_are_saved_and_restored_with_the_preferences(bpy_module, instal
     import subprocess
     import sys
 
+    if not extension_submodule("btf_addon.blender.compat").at_least(4, 5):
+        # Checked: `import bpy; bpy.ops.wm.read_userpref()` alone segfaults with the bpy 4.2.23
+        # module (no add-on involved), so the second process cannot read the file back there.
+        pytest.skip("bpy 4.2 as a Python module crashes in wm.read_userpref")
     bpy = bpy_module
     wiimote_prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
     prefs = wiimote_prefs.wiimote_preferences()
