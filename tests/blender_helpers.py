@@ -76,8 +76,6 @@ def sphere_on_ground(bpy, tmp_path, material_source, size=(96, 64), segments=48,
     BTF engine at ``size`` with 24 virtual lights, rendering to ``tmp_path/f12.exr``."""
     import math
 
-    from helpers import studiolights_dir
-
     scene = bpy.context.scene
     scene.render.engine = "BTF_RENDER"
     scene.render.resolution_x, scene.render.resolution_y = size
@@ -99,12 +97,19 @@ def sphere_on_ground(bpy, tmp_path, material_source, size=(96, 64), segments=48,
     cam.location = (0.0, -5.0, 1.5)
     cam.rotation_euler = (math.radians(75), 0.0, 0.0)
     scene.camera = cam
-    world = with_nodes(bpy.data.worlds.new("W"))
+    scene.world = forest_world(bpy, "W")
+    scene.render.filepath = str(tmp_path / "f12.exr")
+    return scene
+
+
+def forest_world(bpy, name: str = "Forest"):
+    """A World lit by Blender's bundled forest.exr through an Environment Texture node."""
+    from helpers import studiolights_dir
+
+    world = with_nodes(bpy.data.worlds.new(name))
     texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
     texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
     world.node_tree.links.new(
         texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
     )
-    scene.world = world
-    scene.render.filepath = str(tmp_path / "f12.exr")
-    return scene
+    return world

@@ -7,8 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from blender_helpers import with_nodes
-from helpers import studiolights_dir
+from blender_helpers import forest_world, with_nodes
 
 from btf_addon.core.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.container import write_container
@@ -74,13 +73,7 @@ def build(bpy, tmp_path, kind: str, ground: bool):
     scene.camera = cam
     cam.location = (0.0, -4.5, 1.5)
     cam.rotation_euler = (math.radians(75.0), 0.0, 0.0)
-    world = with_nodes(bpy.data.worlds.new("Forest"))
-    texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
-    world.node_tree.links.new(
-        texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
-    )
-    scene.world = world
+    scene.world = forest_world(bpy)
     scene.render.resolution_x, scene.render.resolution_y = SIZE
     scene.render.resolution_percentage = 100
     return scene
