@@ -3,7 +3,8 @@
 One POST_PIXEL draw handler for every 3D view, added when a Wiimote session starts and removed
 when it ends; it draws only while the session's help is visible. Text goes through ``blf``
 (Blender's font drawing), on a dark backdrop so it reads over any material. Not drawn in VR
-(the headset's HUD quad belongs to the VR session's overlay; not done here).
+itself: the VR session's HUD quad (blender/xr.py) shows the same rows through
+``current_help``).
 """
 
 from __future__ import annotations
@@ -20,12 +21,9 @@ _source = None  # a callable → (visible, bindings)
 
 
 def _draw() -> None:
-    if _source is None:
+    lines = current_help()
+    if not lines:
         return
-    visible, bindings = _source()
-    if not visible:
-        return
-    lines = [("Wiimote", "(Home: hide)"), *help_lines(bindings)]
     size, pad = 14, 8
     line_h = int(size * 1.5)
     width = 460
@@ -49,6 +47,14 @@ def _draw() -> None:
         blf.color(font, 1.0, 1.0, 1.0, 1.0)
         blf.position(font, x0 + pad + 190, y, 0)
         blf.draw(font, text)
+
+
+def current_help() -> list[tuple[str, str]] | None:
+    """The help rows while a session shows its help, else None (the VR HUD draws them too)."""
+    if _source is None:
+        return None
+    visible, bindings = _source()
+    return [("Wiimote", "(Home: hide)"), *help_lines(bindings)] if visible else None
 
 
 def show(source) -> None:

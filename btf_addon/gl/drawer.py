@@ -237,22 +237,33 @@ class ProgressiveDrawer:
         with self.device.bound(view.output):
             self.draw_resolved(view)
 
-    def draw_resolved(self, view: ViewAccumulation) -> None:
+    def draw_resolved(
+        self,
+        view: ViewAccumulation,
+        exposure: float = 0.0,
+        transparent_background: bool = False,
+        state: DrawState = DEFAULT_STATE,
+    ) -> None:
         """Draw ``view``'s image so far into the bound framebuffer, which must have the view's
         size (pixels are fetched at the fragment's own coordinates): an eye's framebuffer in
-        a draw callback, a swapchain image."""
+        a draw callback, a swapchain image. ``exposure``: stops, on surfaces and World alike;
+        ``transparent_background``: premultiplied alpha 0 where no surface was drawn, to be
+        blended (``state``) over what the framebuffer already holds."""
         device = self.device
         done = view.state.done if view.state is not None else 0
-        device.set_state(DEFAULT_STATE)
+        params = (max(done, 1), float(transparent_background), float(exposure), 0.0)
+        device.set_state(state)
         device.draw(
             self.resolve_program,
             self.quad_resolve,
-            {"resolve_params": (max(done, 1), 0.0, 0.0, 0.0)},
+            {"resolve_params": params},
             {
                 "accumulation": device.target_texture(view.accumulation),
                 "background": device.target_texture(view.background),
             },
         )
+        if state != DEFAULT_STATE:
+            device.set_state(DEFAULT_STATE)
 
     def _draw_surfaces(self, view: ViewAccumulation, first: int, count: int, state: DrawState):
         device = self.device

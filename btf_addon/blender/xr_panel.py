@@ -1,0 +1,166 @@
+"""The "BTF VR" panel (3D view sidebar, VR tab), its settings (``scene.btf_vr``) and the
+start/stop operator. Without XR in the Blender build only an explanatory panel registers."""
+
+from __future__ import annotations
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.types import Operator, Panel, PropertyGroup
+
+#: What the panel says in a Blender built without OpenXR (bpy.app.build_options.xr_openxr).
+NO_XR_LINES = (
+    "This Blender was built without OpenXR,",
+    "so it cannot start a VR session.",
+    "Official Windows and Linux builds have it.",
+)
+
+
+class BTFVRSettings(PropertyGroup):
+    lights_mode: EnumProperty(
+        name="Lights per Frame",
+        items=(
+            ("BUDGET", "Frame Budget", "As many lights per frame as fit the frame-time budget"),
+            ("FIXED", "Fixed", "The same number of lights every frame"),
+        ),
+        default="BUDGET",
+    )
+    frame_budget_ms: FloatProperty(
+        name="Frame Budget",
+        default=11.0,
+        min=1.0,
+        max=100.0,
+        description="Milliseconds per frame (11 ms holds 90 Hz); lights per frame adapt to it",
+    )
+    lights_per_frame: IntProperty(
+        name="Lights per Frame",
+        default=5,
+        min=1,
+        soft_max=64,
+        description="Virtual lights added per frame while the head moves",
+    )
+    lights_total: IntProperty(
+        name="Total Lights",
+        default=200,
+        min=1,
+        soft_max=4096,
+        max=65536,
+        description="Virtual lights accumulated while the head is still",
+    )
+    exposure: FloatProperty(
+        name="Exposure",
+        default=0.0,
+        soft_min=-10.0,
+        soft_max=10.0,
+        description="Brightness in the headset, in stops",
+    )
+    show_hud: BoolProperty(
+        name="HUD",
+        default=True,
+        description="Material, lights and frame time on a panel floating below the view",
+    )
+    show_world: BoolProperty(
+        name="BTF World",
+        default=True,
+        description="Draw the World's environment behind the objects; off shows Blender's own "
+        "VR background (floor, controllers) around them",
+    )
+
+    @classmethod
+    def register(cls) -> None:
+        bpy.types.Scene.btf_vr = PointerProperty(type=cls, name="BTF VR")
+
+    @classmethod
+    def unregister(cls) -> None:
+        del bpy.types.Scene.btf_vr
+
+
+class BTF_OT_vr_session_toggle(Operator):
+    """Start or stop the VR session with BTF materials drawn in the headset"""
+
+    bl_idname = "btf.vr_session_toggle"
+    bl_label = "Toggle BTF VR Session"
+    bl_options = {"REGISTER"}
+
+    def execute(self, context):
+        # Our draw callback is a custom overlay: it runs only with this switched on.
+        context.window_manager.xr_session_settings.show_custom_overlays = True
+        try:
+            result = bpy.ops.wm.xr_session_toggle()
+        except RuntimeError as exc:  # Blender reports a missing runtime/headset this way
+            self.report(
+                {"ERROR"},
+                f"Could not start the VR session ({exc}). Check that an OpenXR runtime is "
+                "installed and active (SteamVR, Oculus, WMR, Monado) and the headset is on",
+            )
+            return {"CANCELLED"}
+        return result
+
+
+class VIEW3D_PT_btf_vr(Panel):
+    bl_label = "BTF VR"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "VR"
+
+    def draw(self, context) -> None:
+        from . import xr
+
+        layout = self.layout
+        settings = context.scene.btf_vr
+        running = bpy.types.XrSessionState.is_running(context)
+        layout.operator(
+            "btf.vr_session_toggle",
+            text="Stop VR Session" if running else "Start VR Session",
+            icon="PAUSE" if running else "PLAY",
+        )
+        col = layout.column()
+        col.use_property_split = True
+        col.prop(settings, "lights_mode")
+        if settings.lights_mode == "BUDGET":
+            col.prop(settings, "frame_budget_ms", text="Budget (ms)")
+        else:
+            col.prop(settings, "lights_per_frame")
+        col.prop(settings, "lights_total")
+        col.prop(settings, "exposure")
+        col.prop(settings, "show_hud")
+        col.prop(settings, "show_world")
+        preview = xr.preview()
+        if running and preview is not None:
+            box = layout.box()
+            box.label(text=preview.summary(), icon="ERROR" if preview.error else "INFO")
+            for key, eye in sorted(preview.eyes.items()):
+                box.label(text=f"{key}: {eye.budget.status()}")
+        if not context.window_manager.xr_session_settings.show_custom_overlays:
+            layout.label(text="Custom overlays are off: BTF is not drawn", icon="ERROR")
+
+
+class VIEW3D_PT_btf_vr_unavailable(Panel):
+    bl_label = "BTF VR"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "VR"
+
+    def draw(self, context) -> None:
+        col = self.layout.column()
+        col.label(text="VR preview unavailable", icon="ERROR")
+        for line in NO_XR_LINES:
+            col.label(text=line)
+
+
+WITH_XR = (BTFVRSettings, BTF_OT_vr_session_toggle, VIEW3D_PT_btf_vr)
+WITHOUT_XR = (VIEW3D_PT_btf_vr_unavailable,)
+_registered: tuple = ()
+
+
+def register(xr_available: bool) -> None:
+    global _registered
+    _registered = WITH_XR if xr_available else WITHOUT_XR
+    for cls in _registered:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    global _registered
+    for cls in reversed(_registered):
+        bpy.utils.unregister_class(cls)
+    _registered = ()
