@@ -52,7 +52,9 @@ class HudDrawer:
         if digest.digest() == self._digest:
             return
         # linear: the quad is rarely pixel-aligned with the eye's image; premultiplied texels
-        # filter without dark fringes.
+        # filter without dark fringes. Blender's adapter keeps its default sampler (it may
+        # repeat at the edges): raster_text's border is background padding on every side, so
+        # clamping and repeating filter the same values there.
         texture = self.device.texture(image, linear=True)
         self.device.release(self.texture)
         self.texture, self._digest = texture, digest.digest()
