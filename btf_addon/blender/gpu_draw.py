@@ -21,7 +21,8 @@ from ..gl.interface import ShaderCompileError, ShaderInterface
 from ..scene.scene import Scene
 
 _shader_cache: dict[str, gpu.types.GPUShader] = {}
-_BLEND = {"NONE": "NONE", "ADD": "ADDITIVE_PREMULT"}  # ADDITIVE_PREMULT: ONE, ONE
+# ADDITIVE_PREMULT: ONE, ONE; ALPHA_PREMULT: ONE, ONE_MINUS_SRC_ALPHA (colour and alpha)
+_BLEND = {"NONE": "NONE", "ADD": "ADDITIVE_PREMULT", "OVER": "ALPHA_PREMULT"}
 
 
 def shader(interface: ShaderInterface) -> gpu.types.GPUShader:

@@ -34,7 +34,9 @@ class DrawState:
     depth_test: str = "NONE"  # NONE | LESS | EQUAL
     depth_write: bool = True
     colour_write: bool = True
-    blend: str = "NONE"  # NONE | ADD (source + destination, colour and alpha)
+    # NONE | ADD (source + destination, colour and alpha) | OVER (premultiplied "over":
+    # source + destination·(1 − source alpha), colour and alpha)
+    blend: str = "NONE"
 
 
 DEFAULT_STATE = DrawState()
@@ -43,6 +45,8 @@ DEPTH_PREPASS = DrawState(depth_test="LESS", colour_write=False)
 # A batch of lights added on exactly the surface the pre-pass found (same vertices, same
 # matrices → bit-identical depth), nothing else touched.
 ADD_LIGHTS = DrawState(depth_test="EQUAL", depth_write=False, blend="ADD")
+# An overlay with premultiplied alpha (the VR HUD, gl/hud.py) over what is drawn already.
+OVER = DrawState(blend="OVER")
 
 
 class Device(Protocol):

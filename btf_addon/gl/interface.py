@@ -195,3 +195,16 @@ RESOLVE_SHADER = ShaderInterface(
     vertex_file="query_vert.glsl",
     fragment_file="resolve_frag.glsl",
 )
+
+# The VR HUD (gl/hud.py): a textured quad whose 4 view-space corners arrive as the columns of
+# view_corners, placed by the static uv of each of its 6 vertices (no per-frame vertex upload).
+HUD_SHADER = ShaderInterface(
+    name="btf_hud",
+    vertex_inputs=((0, "VEC2", "corner_uv"),),
+    fragment_outputs=((0, "VEC4", "frag_color"),),
+    samplers=((0, "FLOAT_2D", "hud_image"),),
+    push_constants=(("MAT4", "clip_from_view"), ("MAT4", "view_corners")),
+    varyings=(("VEC2", "v_uv"),),
+    vertex_file="hud_vert.glsl",
+    fragment_file="hud_frag.glsl",
+)

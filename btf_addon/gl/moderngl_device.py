@@ -146,6 +146,9 @@ class ModernGLDevice:
         if state.blend == "ADD":
             ctx.enable(ctx.BLEND)
             ctx.blend_func = (ctx.ONE, ctx.ONE)
+        elif state.blend == "OVER":  # premultiplied alpha: the same factors for colour and alpha
+            ctx.enable(ctx.BLEND)
+            ctx.blend_func = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
         else:
             ctx.disable(ctx.BLEND)
 
