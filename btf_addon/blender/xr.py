@@ -272,7 +272,7 @@ def _session_window():
 
 def session_source() -> SceneSource:
     def depsgraph():
-        wm, window = _session_window()
+        _, window = _session_window()
         if window is not None:
             return window.view_layer.depsgraph
         # Background Blender has no window (a script or test driving the callback itself):
@@ -301,7 +301,7 @@ def draw_callback(target: XRPreview | None = None) -> None:
         if _preview is None:
             _preview = XRPreview(session_source())
         target = _preview
-    x, y, width, height = gpu.state.viewport_get()
+    *_, width, height = gpu.state.viewport_get()
     if width < 1 or height < 1:
         return
     clip_from_view = np.array(gpu.matrix.get_projection_matrix(), dtype=np.float64)

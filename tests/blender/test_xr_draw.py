@@ -78,7 +78,7 @@ class EyeTargets:
         import mathutils
 
         xr = extension_submodule("btf_addon.blender.xr")
-        for eye, off in zip(eye_list or self.eyes, self.offscreens):
+        for eye, off in zip(eye_list or self.eyes, self.offscreens, strict=True):
             with off.bind(), gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
                 gpu.matrix.load_projection_matrix(mathutils.Matrix(eye.clip_from_view.tolist()))
                 gpu.matrix.load_matrix(mathutils.Matrix(eye.view_from_world.tolist()))
@@ -160,7 +160,7 @@ def test_each_eye_draws_what_the_standalone_drawer_draws(bpy_module, vr_scene):
         preview.release()
         targets.free()
     references = reference_images(bpy, eye_list, 24)
-    for name, image, reference in zip(("left", "right"), drawn, references):
+    for name, image, reference in zip(("left", "right"), drawn, references, strict=True):
         assert image.shape == (profile.eye_height, profile.eye_width, 4)
         assert reference[..., :3].max() > 0.1
         error = np.abs(image[..., :3] - reference[..., :3]).max() / reference[..., :3].max()
@@ -173,7 +173,7 @@ def test_the_eyes_see_the_sphere_with_the_right_disparity(bpy_module, vr_scene):
     eye. The sphere's image (its orange pixels) shifts by the disparity its centre's projection
     predicts, within 1.5 px (the cube hides part of it, and pixel masks are whole pixels)."""
     bpy = bpy_module
-    profile, eye_list = eyes()
+    _, eye_list = eyes()
     preview = new_preview(bpy, stand_in_session())
     targets = EyeTargets(eye_list)
     try:
@@ -318,7 +318,7 @@ def test_the_hud_floats_below_the_view_in_both_eyes(bpy_module, vr_scene):
             preview.release()
             targets.free()
     centres = []
-    for plain, with_hud in zip(images[False], images[True]):
+    for plain, with_hud in zip(images[False], images[True], strict=True):
         changed = np.any(np.abs(with_hud - plain) > 1e-3, axis=-1)
         rows = np.argwhere(changed)[:, 0]
         assert changed.any() and rows.max() < plain.shape[0] / 2  # row 0 is the bottom

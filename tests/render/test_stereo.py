@@ -23,10 +23,10 @@ def head_and_eyes(position=(0.3, -2.0, 1.6), target=(0.0, 0.0, 1.0)):
 
 def frustum(left, right, down, up, near=0.1, far=100.0):
     """glFrustum from tangents (l < 0 < r, d < 0 < u)."""
-    l, r, d, u = (near * t for t in (left, right, down, up))
+    lo, hi, d, u = (near * t for t in (left, right, down, up))
     return np.array(
         [
-            [2 * near / (r - l), 0, (r + l) / (r - l), 0],
+            [2 * near / (hi - lo), 0, (hi + lo) / (hi - lo), 0],
             [0, 2 * near / (u - d), (u + d) / (u - d), 0],
             [0, 0, -(far + near) / (far - near), -2 * far * near / (far - near)],
             [0, 0, -1, 0],
