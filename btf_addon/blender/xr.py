@@ -41,7 +41,7 @@ from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.hud import HudDrawer
 from ..gl.interface import ShaderCompileError
 from ..render.frame_budget import FrameBudget, view_moved
-from ..render.hud import hud_quad, raster_text, status_lines
+from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
 from ..render.lighting import frame_lights
 from ..render.settings import Lighting, RenderSettings
 from ..render.stereo import EyeId, EyeIdentifier
@@ -89,6 +89,7 @@ class EyeState:
     drawn: int = 0  # lights added in this eye's previous frame
     frames: int = 0
     hud_lines: list[str] = field(default_factory=list)
+    hud_image: np.ndarray | None = None
     hud_time: float = -1.0
     gaze_material: str = ""
 
@@ -222,24 +223,27 @@ class XRPreview:
             material = slot.material
             if material is not None and material.btf.enabled:
                 return material.name
-        return obj.name
+        return ""
 
     def _draw_hud(self, eye: EyeState, eye_id: EyeId, clip_from_view, view, vr) -> None:
         now = self.clock()
         if now - eye.hud_time >= HUD_REFRESH_S or eye.view.state.converged:
             help_rows = wiimote_overlay.current_help()
             lines = status_lines(
-                eye.gaze_material or "—",
+                eye.gaze_material,
                 view.state.done,
                 view.state.total,
                 eye.budget.status() if vr.use_budget else f"{vr.lights_per_frame} lights/frame",
             )
-            lines += [f"{a}: {b}" for a, b in help_rows or ()]
-            eye.hud_lines, eye.hud_time = lines, now
+            lines += [f"{a}: {b}"[:MAX_CHARS] for a, b in help_rows or ()]
+            if lines[:MAX_LINES] != eye.hud_lines:
+                eye.hud_lines = lines[:MAX_LINES]
+                eye.hud_image = raster_text(eye.hud_lines)
+            eye.hud_time = now
         if self.hud is None:
             self.hud = HudDrawer(self.device)
-        image = raster_text(eye.hud_lines)
-        self.hud.set_image(image)
+        image = eye.hud_image
+        self.hud.set_image(image)  # uploads only when the pixels differ from the last eye's
         scale = self._navigation_scale()
         corners = hud_quad(eye_id.offset / scale, image.shape[1] / image.shape[0]) * scale
         self.hud.draw(clip_from_view, corners)
