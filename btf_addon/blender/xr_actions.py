@@ -17,8 +17,9 @@ of the shared vocabulary and applies it with ``wiimote_edits.apply_edit``: targe
 (material, exposure) act on the object under the controller's aim ray, else on the active
 object; discrete actions push one undo step each; a continuous action (op mode MODAL: an event
 every frame while the input is beyond its threshold, one on release) applies
-amount = rate · deflection · seconds since the previous event and pushes one undo step when
-the gesture ends. ``register``/``unregister`` add and remove exactly the handler and the
+amount = rate · deflection · seconds between events and pushes one undo step when
+the gesture ends (the deflection of each event holds until the next, as the Wiimote's
+step function integrates). ``register``/``unregister`` add and remove exactly the handler and the
 operator; ``blender/xr.py`` calls them only when ``bpy.app.build_options.xr_openxr``.
 """
 
@@ -131,6 +132,7 @@ class XrActionRun:
         self.ctx, self.item, self.push_undo = ctx, item, push_undo
         self.action: Action = item.action
         self.last_t: float | None = None
+        self.last_deflection = 0.0
         self.applied: list[tuple[Edit, str]] = []
         self.undo_steps: list[str] = []
         self.messages: list[str] = []
@@ -150,16 +152,20 @@ class XrActionRun:
         """The input went past its threshold: a discrete action is applied now (one undo
         step); a continuous one starts its gesture (nothing moves before time has passed)."""
         if is_continuous(self.item):
-            self.last_t = now
+            self.last_t, self.last_deflection = now, deflection(xr)
             return ""
         return self._apply(Edit(now, self.action, self.item.amount, target=self.target(xr)))
 
     def update(self, xr, now: float) -> str:
-        """A frame of a held continuous input: rate × deflection × seconds since the last."""
+        """A frame of a held continuous input: rate × deflection × seconds since the previous
+        event, with the deflection that held over those seconds (the previous event's: left
+        Riemann over event times, as the Wiimote's step function, so a full deflection held
+        from t0 to the release at t1 gives exactly rate × (t1 − t0))."""
         if self.last_t is None:
             return self.press(xr, now)
         dt, self.last_t = max(0.0, now - self.last_t), now
-        amount = self.item.amount * deflection(xr) * dt
+        amount = self.item.amount * self.last_deflection * dt
+        self.last_deflection = deflection(xr)
         if amount == 0.0:
             return ""
         return self._apply(Edit(now, self.action, amount, target=self.target(xr)))
@@ -198,6 +204,9 @@ class XrActionRun:
 
 
 # ------------------------------------------------------------------ the operator
+NOT_FROM_VR = "BTF VR actions come from VR controllers (the BTF VR action map), not from here"
+
+
 def _action_items():
     return [(a.name, ACTION_LABELS[a][0], "") for a in Action]
 
@@ -221,10 +230,15 @@ class BTF_OT_xr_action(Operator):
                 pass
         return for_action(Action[self.action])
 
+    def execute(self, context):
+        """Run without an event (from a script, or 'INVOKE_DEFAULT' without a window)."""
+        self.report({"ERROR"}, NOT_FROM_VR)
+        return {"CANCELLED"}
+
     def invoke(self, context, event):
         xr = getattr(event, "xr", None)
         if event.type != "XR_ACTION" or xr is None:
-            self.report({"ERROR"}, "BTF VR actions come from VR controllers (an XR action map)")
+            self.report({"ERROR"}, NOT_FROM_VR)
             return {"CANCELLED"}
         self._run = XrActionRun(EditContext(context.scene, context.view_layer), self._item(xr))
         text = self._run.press(xr, time.monotonic())
