@@ -153,7 +153,10 @@ class Collection(list):
 
 
 class StandInSession:
-    """XrSessionState's action-map calls, recorded; ``refuse`` names a call that fails."""
+    """XrSessionState's action-map calls, recorded, refusing what Blender's ``rna_xr.cc``
+    refuses (an action without user paths or whose operator is not registered, a binding
+    whose component paths do not pair with the user paths); ``refuse`` names a call that
+    fails anyway."""
 
     def __init__(self, bpy, refuse: str = "") -> None:
         types = bpy.types
@@ -207,9 +210,17 @@ class StandInSession:
         return self._call("action_set_create", am.name)
 
     def action_create(self, context, am, ami):
+        import bpy
+
+        assert len(ami.user_paths) >= 1, ami.name
+        op = ami.__dict__.get("op", "")
+        if op:  # WM_operatortype_find: the operator must be registered
+            category, name = op.split(".")
+            assert name in dir(getattr(bpy.ops, category)), op
         return self._call("action_create", ami.name)
 
     def action_binding_create(self, context, am, ami, amb):
+        assert len(amb.component_paths) == len(ami.user_paths) >= 1, (ami.name, amb.name)
         return self._call("action_binding_create", ami.name, amb.name)
 
     def controller_pose_actions_set(self, context, action_set, grip, aim):
