@@ -500,3 +500,86 @@ def test_view_edits_in_vr_move_the_navigation_not_the_camera(bpy_module, fresh_s
     ctx.xr_source = lambda: None
     edits.apply_edit(ctx, Edit(0.0, Action.ORBIT_CAMERA, 90.0, "YAW"))
     assert camera.matrix_world != camera_before
+
+
+# ------------------------------------------------------------------ invoke / modal, no window
+class StandInWindowManager:
+    def __init__(self) -> None:
+        self.handlers: list = []
+
+    def modal_handler_add(self, operator) -> bool:
+        self.handlers.append(operator)
+        return True
+
+
+def stand_in_operator(module, action: str):
+    """The real operator methods on a plain object (Blender runs an operator's invoke and
+    modal only with an event, which background Blender never sends)."""
+    cls = module.BTF_OT_xr_action
+    methods = {name: cls.__dict__[name] for name in ("invoke", "modal", "execute", "_item")}
+
+    def report(self, kind, text) -> None:
+        self.reports.append((next(iter(kind)), text))
+
+    operator = type("StandInOperator", (), {**methods, "report": report})()
+    operator.action, operator.reports = action, []
+    return operator
+
+
+def xr_action_event(bpy, name: str, value: str, x: float):
+    """An Event of type XR_ACTION from the action ``name`` of our set."""
+    xr = xr_event(bpy, state=(x, 0.0))
+    xr.action = name
+    return SimpleNamespace(type="XR_ACTION", value=value, xr=xr)
+
+
+def test_invoke_and_modal_run_a_thumbstick_gesture(bpy_module, xr_registered, monkeypatch):
+    bpy = bpy_module
+    two_cubes(bpy)
+    clock = [100.0]
+    monkeypatch.setattr(xr_registered.time, "monotonic", lambda: clock[0])
+    context = SimpleNamespace(
+        scene=bpy.context.scene,
+        view_layer=bpy.context.view_layer,
+        window_manager=StandInWindowManager(),
+    )
+    operator = stand_in_operator(xr_registered, "ROTATE_ENVIRONMENT")
+
+    def event(value, x, action="rotate_environment"):
+        return xr_action_event(bpy, action, value, x)
+
+    assert operator.invoke(context, event("PRESS", 1.0)) == {"RUNNING_MODAL"}
+    assert context.window_manager.handlers == [operator]
+    clock[0] = 101.0  # one second at full deflection: 45°
+    assert operator.modal(context, event("PRESS", -1.0)) == {"RUNNING_MODAL"}
+    # Another action's event (e.g. a trigger press meanwhile) is left for its own operator.
+    assert operator.modal(context, event("PRESS", 1.0, "next_material")) == {"PASS_THROUGH"}
+    assert operator.modal(context, SimpleNamespace(type="MOUSEMOVE", xr=None)) == {"PASS_THROUGH"}
+    clock[0] = 101.5  # half a second back at full deflection: −22.5°
+    assert operator.modal(context, event("RELEASE", 0.0)) == {"FINISHED"}
+    (mapping,) = [
+        n for n in bpy.context.scene.world.node_tree.nodes if n.bl_idname == "ShaderNodeMapping"
+    ]
+    # 45 − 22.5 = 22.5°; float32 storage (about 1e-7 rad).
+    rotation_z = mapping.inputs["Rotation"].default_value[2]
+    assert rotation_z == pytest.approx(math.radians(22.5), abs=1e-6)
+    assert operator._run.undo_steps == ["VR: Rotate environment"]
+
+
+def test_invoke_applies_a_press_action_at_once(bpy_module, xr_registered):
+    bpy = bpy_module
+    (_, right), (_, mat_b) = two_cubes(bpy)
+    context = SimpleNamespace(
+        scene=bpy.context.scene,
+        view_layer=bpy.context.view_layer,
+        window_manager=StandInWindowManager(),
+    )
+    operator = stand_in_operator(xr_registered, "NEXT_MATERIAL")
+    press = xr_action_event(bpy, "next_material", "PRESS", 1.0)
+    assert operator.invoke(context, press) == {"FINISHED"}
+    assert context.window_manager.handlers == []  # no modal handler for a press
+    assert right.material_slots[0].material == mat_b
+    assert operator.reports == [("INFO", "material BTF B")]
+    # Without an XR event (a script, a key press): refused with the reason.
+    assert operator.invoke(context, SimpleNamespace(type="LEFTMOUSE", xr=None)) == {"CANCELLED"}
+    assert "VR controllers" in operator.reports[-1][1]
