@@ -16,6 +16,13 @@ Targets, in the words of issue 13:
   camera around the active object (or the origin); reset view restores what was saved at start.
   A session that started in a 3D view and lost it (the area was closed or joined) skips them
   with a message rather than move the camera instead.
+- in a running VR session (``XrSessionState.is_running``): orbit and zoom move the VR
+  navigation instead (``navigation_location/rotation/scale``: Blender draws the viewer at
+  navigation @ base pose @ tracked pose, so a world-space transform applied on the left of the
+  navigation moves the viewer by exactly that transform), and reset view resets the navigation
+  as Blender's ``wm.xr_navigation_reset`` does (origin, no rotation, scale 1). Outside VR
+  nothing changes. The functions take the session state as a value (``vr_orbit``,
+  ``vr_zoom``, ``vr_reset``), so anything with those attribute names drives them.
 """
 
 from __future__ import annotations
@@ -59,6 +66,16 @@ class EditContext:
         self.saved_view = ViewState()
         self.help_visible = False
         self.screenshots: list[str] = []
+        # Where the VR session state comes from: None = Blender's window manager, looked up on
+        # every edit (a VR session may start or stop during a Wiimote session); a callable
+        # returning a stand-in state (or None) otherwise.
+        self.xr_source = None
+
+    def xr(self):
+        """The running VR session's state (an XrSessionState), or None outside VR."""
+        if self.xr_source is not None:
+            return self.xr_source()
+        return running_xr_state()
 
     def set_view(self, region_3d, region) -> None:
         """The 3D view as it is now (None, None: gone; the view edits then skip)."""
@@ -91,6 +108,20 @@ class EditContext:
             if self.region_3d
             else None,
         )
+
+
+def running_xr_state(context=None):
+    """The window manager's XrSessionState while a VR session runs, else None (also in a build
+    without OpenXR, and headless)."""
+    context = context or bpy.context
+    wm = getattr(context, "window_manager", None)
+    state = getattr(wm, "xr_session_state", None) if wm is not None else None
+    if state is None:
+        return None
+    try:
+        return state if bpy.types.XrSessionState.is_running(context) else None
+    except (AttributeError, RuntimeError, TypeError):  # no window context to ask in
+        return None
 
 
 # ------------------------------------------------------------------ materials
@@ -279,6 +310,61 @@ def zoom(ctx: EditContext, stops: float) -> None:
     camera.matrix_world.translation = pivot + offset * factor
 
 
+# --------------------------------------------------------------- VR navigation
+def _navigation_about(xr_state, pivot: Vector, rotation: Quaternion, scale: float) -> None:
+    """Apply the world-space transform "scale by ``scale`` and rotate by ``rotation`` about
+    ``pivot``" to the VR viewer: left-multiplied onto the navigation matrix
+    T(location) R(rotation) S(scale), it gives location' = pivot + rotation·scale·(location −
+    pivot), rotation' = rotation·rotation₀, scale' = scale·scale₀ (a uniform scale commutes with
+    the rotation)."""
+    location = Vector(xr_state.navigation_location)
+    nav_rotation = Quaternion(xr_state.navigation_rotation)
+    offset = rotation @ (location - pivot)
+    xr_state.navigation_location = pivot + offset * scale
+    xr_state.navigation_rotation = rotation @ nav_rotation
+    xr_state.navigation_scale = xr_state.navigation_scale * scale
+
+
+def vr_orbit(xr_state, pivot, degrees: float, axis: str) -> None:
+    """Orbit the VR viewer about ``pivot``: ``YAW`` about world Z (+: the viewer moves to its
+    right, as the desktop orbit), ``PITCH`` about the horizontal axis to the viewer's right
+    (+: the viewer rises). The horizon tilts with a pitch orbit; reset view levels it again."""
+    angle = math.radians(degrees)
+    if axis == "YAW":
+        rotation = Quaternion((0.0, 0.0, 1.0), angle)
+    else:
+        right = Quaternion(xr_state.viewer_pose_rotation) @ Vector((1.0, 0.0, 0.0))
+        right.z = 0.0
+        if right.length < 1e-6:  # looking straight up or down: no horizontal right axis
+            raise EditSkipped("looking straight up or down: no axis to orbit about")
+        rotation = Quaternion(right.normalized(), -angle)
+    _navigation_about(xr_state, Vector(pivot), rotation, 1.0)
+
+
+#: navigation_scale is kept within these (Blender's RNA has no limit; a scale near zero or huge
+#: makes the clip range useless).
+VR_SCALE_RANGE = (1e-3, 1e3)
+
+
+def vr_zoom(xr_state, pivot, stops: float) -> None:
+    """Zoom the VR view towards ``pivot``: ``stops`` > 0 divides the viewer's distance to the
+    pivot and its scale (navigation_scale) by 2**stops, so the pivot keeps its place in view
+    and everything looks 2**stops times larger, with the stereo depth to match."""
+    factor = 2.0 ** (-stops)
+    new_scale = xr_state.navigation_scale * factor
+    if not VR_SCALE_RANGE[0] <= new_scale <= VR_SCALE_RANGE[1]:
+        raise EditSkipped(f"VR scale {new_scale:.3g} would leave {VR_SCALE_RANGE}")
+    _navigation_about(xr_state, Vector(pivot), Quaternion(), factor)
+
+
+def vr_reset(xr_state) -> None:
+    """Reset the VR navigation (as ``wm.xr_navigation_reset``): the viewer back at its base
+    pose (the scene camera or the session's landmark)."""
+    xr_state.navigation_location = (0.0, 0.0, 0.0)
+    xr_state.navigation_rotation = (1.0, 0.0, 0.0, 0.0)
+    xr_state.navigation_scale = 1.0
+
+
 def reset_view(ctx: EditContext) -> None:
     saved = ctx.saved_view
     r3d = ctx.view()
@@ -324,6 +410,11 @@ def apply_edit(ctx: EditContext, edit: Edit) -> str:
         rotate_object(ctx, amount, edit.axis)
     elif a is Action.ROTATE_ENVIRONMENT:
         rotate_environment(ctx, amount)
+    elif (
+        a in (Action.ORBIT_CAMERA, Action.ZOOM_IN, Action.ZOOM_OUT, Action.RESET_VIEW)
+        and (xr_state := ctx.xr()) is not None
+    ):
+        return _apply_vr_view(ctx, xr_state, edit)
     elif a is Action.ORBIT_CAMERA:
         orbit(ctx, amount, edit.axis)
     elif a in (Action.ZOOM_IN, Action.ZOOM_OUT):
@@ -350,4 +441,17 @@ def apply_edit(ctx: EditContext, edit: Edit) -> str:
     elif a is Action.RESET_VIEW:
         reset_view(ctx)
         return "view reset"
+    return ""
+
+
+def _apply_vr_view(ctx: EditContext, xr_state, edit: Edit) -> str:
+    """The view actions in a running VR session: they move the VR navigation."""
+    a = edit.action
+    if a is Action.RESET_VIEW:
+        vr_reset(xr_state)
+        return "VR navigation reset"
+    if a is Action.ORBIT_CAMERA:
+        vr_orbit(xr_state, _pivot(ctx), edit.amount, edit.axis)
+    else:
+        vr_zoom(xr_state, _pivot(ctx), edit.amount if a is Action.ZOOM_IN else -edit.amount)
     return ""

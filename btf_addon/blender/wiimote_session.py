@@ -19,7 +19,7 @@ from ..controllers.controls import Controls
 from ..controllers.transport import ControllerDisconnectedError, ControllerError
 from ..controllers.wiimote.driver import Wiimote
 from .wiimote_edits import EditContext, EditSkipped, apply_edit
-from .wiimote_pointer import object_under_pointer
+from .wiimote_pointer import object_under_gaze, object_under_pointer
 
 log = logging.getLogger(__name__)
 
@@ -110,12 +110,16 @@ class WiimoteSession:
 
     def _target(self, edit: Edit) -> str | None:
         """The object a targeted action acts on: the edit's own target, else the object under
-        the IR pointer (None: the active object)."""
+        the IR pointer, else, in a running VR session, the object under the headset's gaze
+        (None: the active object)."""
         if edit.action not in TARGETED:
             return None
         if edit.target is not None:
             return edit.target
-        return object_under_pointer(self.ctx, edit.pointer) if edit.pointer else None
+        if edit.pointer:
+            return object_under_pointer(self.ctx, edit.pointer)
+        xr_state = self.ctx.xr()
+        return object_under_gaze(self.ctx.scene, xr_state) if xr_state is not None else None
 
     def _feedback(self, action: Action) -> None:
         try:

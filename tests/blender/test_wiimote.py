@@ -716,3 +716,91 @@ def test_lights_per_redraw_stays_within_the_property_limits(bpy_module, fresh_sc
     for _ in range(3):
         edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.LIGHTS_MORE))
     assert settings.lights_per_redraw == prop.hard_max
+
+
+# ------------------------------------------------- the VR half (issue 13), with a stand-in state
+def _vr_state(viewer_location):
+    """XrSessionState's attribute names, for a session Blender cannot start headless: the
+    viewer at ``viewer_location`` looking along +Y (its −Z turned 90° about X)."""
+    from types import SimpleNamespace
+
+    from mathutils import Quaternion, Vector
+
+    return SimpleNamespace(
+        viewer_pose_location=viewer_location,
+        viewer_pose_rotation=Quaternion((1.0, 0.0, 0.0), math.pi / 2),
+        navigation_location=Vector(),
+        navigation_rotation=Quaternion(),
+        navigation_scale=1.0,
+    )
+
+
+def test_in_vr_targeted_edits_without_a_pointer_act_on_the_gazed_object(bpy_module, fresh_scene):
+    bpy = bpy_module
+    _, (mat_a, mat_b), _ = scene_for_wiimote(bpy)
+    cubes = []
+    for x in (-2.0, 2.0):
+        bpy.ops.mesh.primitive_cube_add(size=1.0, location=(x, 0.0, 0.0))
+        cube = bpy.context.view_layer.objects.active
+        cube.data.materials.append(mat_a)
+        cubes.append(cube)
+    left, right = cubes
+    bpy.context.view_layer.objects.active = left
+    bpy.context.view_layer.update()
+    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    replay = extension_submodule("btf_addon.controllers.replay")
+
+    def play(xr_state, stream):
+        ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
+        ctx.xr_source = lambda: xr_state
+        session = session_mod.WiimoteSession(replay.ReplayTransport(stream), ctx)
+        session.start()
+        session.run_to_end()
+        return session
+
+    # The headset at (2, −10, 0) looks at the right cube; no IR dots, so no pointer.
+    play(_vr_state((2.0, -10.0, 0.0)), records(*START, *press(0.5, RIGHT), *press(1.0, PLUS)))
+    assert right.material_slots[0].material == mat_b
+    assert mat_b.btf.exposure == pytest.approx(1 / 3)  # the gazed object's material
+    assert left.material_slots[0].material == mat_a and mat_a.btf.exposure == 0.0
+    # Looking between the cubes (nothing under the gaze): the active object, as on the desktop.
+    play(_vr_state((0.0, -10.0, 0.0)), records(*START, *press(0.5, RIGHT)))
+    assert left.material_slots[0].material == mat_b
+    # Outside VR (no state): the active object again, and no gaze is asked for.
+    play(None, records(*START, *press(0.5, RIGHT)))
+    assert left.material_slots[0].material == mat_a
+
+
+def test_in_vr_reset_view_resets_the_navigation_and_keeps_the_camera(bpy_module, fresh_scene):
+    bpy = bpy_module
+    scene_for_wiimote(bpy)
+    from mathutils import Quaternion, Vector
+
+    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    replay = extension_submodule("btf_addon.controllers.replay")
+    camera = bpy.context.scene.camera.matrix_world.copy()
+    state = _vr_state((0.0, -5.0, 1.6))
+    state.navigation_location = Vector((1.0, 2.0, 0.0))
+    state.navigation_rotation = Quaternion((0.0, 0.0, 1.0), 1.0)
+    state.navigation_scale = 2.0
+    ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
+    ctx.xr_source = lambda: state
+    # Home + A: Home held, A pressed and released, then Home released (the one combo).
+    home, home_a = "0080", "0088"
+    stream = records(
+        *START,
+        (0.5, report_0x37(buttons=home)),
+        (0.6, report_0x37(buttons=home_a)),
+        (0.7, report_0x37(buttons=home)),
+        (0.8, report_0x37(buttons=NONE)),
+    )
+    session = session_mod.WiimoteSession(replay.ReplayTransport(stream), ctx)
+    session.start()
+    session.run_to_end()
+    assert "Wiimote: Reset view" in session.undo_steps
+    assert tuple(state.navigation_location) == (0.0, 0.0, 0.0)
+    assert tuple(state.navigation_rotation) == (1.0, 0.0, 0.0, 0.0)
+    assert state.navigation_scale == 1.0
+    assert bpy.context.scene.camera.matrix_world == camera
