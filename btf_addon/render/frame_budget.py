@@ -6,6 +6,10 @@ successive calls of the same eye's draw callback: it covers everything that happ
 them (this eye's K lights and resolve, the other eye, Blender's own drawing, the runtime's
 frame pacing). One ``FrameBudget`` per eye; ``frame(lights_drawn)`` is called at the start of
 each callback with the number of lights that eye added in its previous frame, and returns K.
+Both eyes' work lies in each eye's intervals: in a steady stereo frame the two controllers see
+the same intervals and settle on the same K (the cost per light they fit is that of a light in
+both eyes). When one eye converges first, the other's intervals shrink while its own K does
+not change, and its model needs a few frames to follow (the ×2 growth bounds the step).
 
 The rule (one sample per call, the interval ``t`` of the frame that drew ``k`` lights):
 
