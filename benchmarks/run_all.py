@@ -9,6 +9,7 @@ import bench_envmap
 import bench_final_render
 import bench_interpolation
 import bench_viewport
+import bench_vr
 import bench_wiimote
 
 if __name__ == "__main__":
@@ -20,6 +21,7 @@ if __name__ == "__main__":
         bench_interpolation,
         bench_envmap,
         bench_viewport,
+        bench_vr,
         bench_final_render,
         bench_wiimote,
     ):

@@ -1,0 +1,292 @@
+"""Frame-budget control: how many virtual lights (K) one eye adds per frame so that a stereo
+frame holds a frame-time budget (11 ms for a 90 Hz headset), and when a view has moved.
+
+Blender's ``gpu`` module has no timer query, so the only clock is the interval between
+successive calls of the same eye's draw callback: it covers everything that happens between
+them (this eye's K lights and resolve, the other eye, Blender's own drawing, the runtime's
+frame pacing). One ``FrameBudget`` per eye; ``frame(lights_drawn)`` is called at the start of
+each callback with the number of lights that eye added in its previous frame, and returns K.
+Both eyes' work lies in each eye's intervals: in a steady stereo frame the two controllers see
+the same intervals and settle on the same K (the cost per light they fit is that of a light in
+both eyes). When one eye converges first, the other's intervals shrink while its own K does
+not change, and its model needs a few frames to follow (the ×2 growth bounds the step).
+
+The rule (one sample per call, the interval ``t`` of the frame that drew ``k`` lights):
+
+1. **Outliers.** A ``t`` more than ``SPIKE_FACTOR`` (3) times the model's prediction and over
+   the budget is held back: if the next interval is normal again it was a stall (Blender busy,
+   the session paused, a shader compile) and is dropped; if the next one is slow too, both are
+   kept: the scene really got slower. Non-positive intervals (clock glitches) are dropped.
+2. **Model.** ``t ≈ overhead + cost · k``, fitted by weighted least squares to the recent
+   samples with forgetting (weight ``memory ** age``, ``memory`` = 0.8: about five frames of
+   memory, so a change of scene or resolution is followed within a few frames). Frames with
+   ``k`` = 0 (converged, nothing drawn) measure the overhead alone. Once the samples have
+   spread over two or more K, the fit is remembered and enters later fits as two light
+   pseudo-samples on its line (at k = 0 and at the current K): when K then stays put, the
+   fresh samples at that K move the line (a change of cost shows at once) while the
+   remembered intercept keeps it determined. Before any spread, the overhead is taken from
+   ``k`` = 0 frames if there were any, else 0, so the first estimate of the cost is on the
+   high side (K too small, never too large).
+3. **Target.** ``target = budget · (1 + tolerance)``, ``tolerance`` = 0.02: a runtime that
+   paces a 90 Hz display returns 11.1 ms intervals against the 11 ms default, which must count
+   as on budget. K_fit = floor((target − overhead) / cost), clamped to [1, k_max].
+4. **Step.** K grows to K_fit by at most ×2 per frame; it drops to K_fit at once. Before the
+   model has seen two K, a frame that drew the full K within the target probes K + 1 (the
+   high-side cost estimate alone would never try more). A frame more than 25 % over the target
+   (a missed frame when the runtime paces frames, where the interval jumps to 2 periods and
+   the straight-line model does not hold) sets a ceiling: K stays below the K that overran for
+   ``CEILING_FRAMES`` accepted frames, so a paced session settles with a rare probe instead of
+   overrunning every few frames. The ceiling goes earlier when the model predicts that K
+   fits with room to spare (the scene got cheaper).
+5. ``over_budget`` is true when the model says that even K = 1 takes longer than the target
+   (before any light was drawn: when the frames without lights already do).
+
+``view_moved`` compares two ``clip_from_world`` matrices: an eye's accumulation restarts when
+its view changed by more than a tolerance relative to the matrix's scale.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+
+import numpy as np
+
+SPIKE_FACTOR = 3.0  # an interval this many times the prediction (and over budget) is suspect
+OVERRUN_FACTOR = 1.25  # an interval this far over the target sets the ceiling (a missed frame)
+CEILING_FRAMES = 240  # accepted frames a ceiling holds (about 2.7 s at 90 Hz)
+WINDOW = 32  # samples kept; memory ** 32 is negligible for the default memory
+PRIOR_WEIGHT = 0.3  # weight of each of the remembered line's two pseudo-samples
+SMOOTHING = 0.3  # EWMA weight of the newest interval in ``frame_time_s``
+
+
+class FrameBudget:
+    """Lights per frame (K) for one eye from the intervals between its draw calls.
+
+    ``budget_s``: the frame time to hold (seconds); ``clock``: seconds as a float, injectable
+    for tests (``time.perf_counter`` by default); ``k_max``: the most lights per frame;
+    ``k_start``: K for the first frames; ``memory`` in (0, 1): forgetting factor per sample;
+    ``tolerance``: the fraction over the budget that still counts as on budget.
+    """
+
+    def __init__(
+        self,
+        budget_s: float = 0.011,
+        clock: Callable[[], float] = time.perf_counter,
+        *,
+        k_max: int = 256,
+        k_start: int = 1,
+        memory: float = 0.8,
+        tolerance: float = 0.02,
+    ):
+        if not budget_s > 0:
+            raise ValueError(f"the frame budget must be positive, got {budget_s} s")
+        if k_max < 1 or not 1 <= k_start <= k_max:
+            raise ValueError(f"need 1 <= k_start ({k_start}) <= k_max ({k_max})")
+        if not 0 < memory < 1:
+            raise ValueError(f"memory must lie in (0, 1), got {memory}")
+        if tolerance < 0:
+            raise ValueError(f"tolerance must be >= 0, got {tolerance}")
+        self.budget_s = float(budget_s)
+        self.clock = clock
+        self.k_max = int(k_max)
+        self.memory = float(memory)
+        self.tolerance = float(tolerance)
+        self._k = int(k_start)
+        self.reset()
+
+    # --- public state ------------------------------------------------------------------------
+    @property
+    def lights_per_frame(self) -> int:
+        """The current K (int >= 1)."""
+        return self._k
+
+    @property
+    def frame_time_s(self) -> float | None:
+        """Smoothed interval between successive accepted calls (seconds); None until one
+        interval was measured."""
+        return self._smoothed
+
+    @property
+    def target_s(self) -> float:
+        """The longest interval that counts as on budget: budget · (1 + tolerance)."""
+        return self.budget_s * (1.0 + self.tolerance)
+
+    @property
+    def model(self) -> tuple[float, float | None] | None:
+        """The fitted (overhead_s, cost_s per light), cost None while only frames without
+        lights were seen; None before any sample."""
+        return self._fit
+
+    @property
+    def over_budget(self) -> bool:
+        """True when the model predicts that even K = 1 takes longer than the target (or,
+        before any light was drawn, that the frames without lights already do)."""
+        t = self._slowest_allowed()
+        return t is not None and t > self.target_s
+
+    def _slowest_allowed(self) -> float | None:
+        """Predicted seconds of a frame with one light; the overhead while no cost is known."""
+        t1 = self._predict(1)
+        return self._predict(0) if t1 is None else t1
+
+    def status(self) -> str:
+        """One line for the HUD or the panel."""
+        budget_ms = self.budget_s * 1000
+        if self.over_budget:
+            t_ms = self._slowest_allowed() * 1000
+            if self._predict(1) is None:
+                return f"over budget: frames take {t_ms:.1f} ms of {budget_ms:.1f} ms unlit"
+            return f"over budget: 1 light/frame takes {t_ms:.1f} ms of {budget_ms:.1f} ms"
+        lights = f"{self._k} light{'s' if self._k != 1 else ''}/frame"
+        if self._smoothed is None:
+            return f"{lights} · measuring ({budget_ms:.1f} ms budget)"
+        return f"{lights} · {self._smoothed * 1000:.1f} of {budget_ms:.1f} ms"
+
+    def reset(self) -> None:
+        """Forget all timings (a session (re)start); K is kept."""
+        self._last_call: float | None = None
+        self._samples: deque[tuple[int, float]] = deque(maxlen=WINDOW)
+        self._held: tuple[int, float] | None = None
+        self._smoothed: float | None = None
+        self._fit: tuple[float, float | None] | None = None
+        self._prior: tuple[float, float] | None = None  # the last fit over spread samples
+        self._ceiling: int | None = None
+        self._ceiling_age = 0
+
+    # --- the step ----------------------------------------------------------------------------
+    def frame(self, lights_drawn: int) -> int:
+        """Call at the start of each of this eye's frames; ``lights_drawn``: the lights this
+        eye added in its previous frame (0: converged or nothing drawn). Returns K (>= 1)."""
+        if lights_drawn < 0:
+            raise ValueError(f"lights_drawn must be >= 0, got {lights_drawn}")
+        now = float(self.clock())
+        last, self._last_call = self._last_call, now
+        if last is None:
+            return self._k
+        interval = now - last
+        if not interval > 0:
+            return self._k  # the clock did not advance: nothing to learn
+        for sample in self._accept(int(lights_drawn), interval):
+            self._add(sample)
+        return self._k
+
+    def _accept(self, k: int, t: float) -> list[tuple[int, float]]:
+        """The samples this interval releases: none while a spike is held, the spike and this
+        one when this one is slow too, only this one after a stall."""
+        expected = self._predict(k)
+        if expected is None:
+            expected = self._smoothed if self._smoothed is not None else self.budget_s
+        spike = t > SPIKE_FACTOR * expected and t > self.target_s
+        held, self._held = self._held, None
+        if held is not None:
+            if spike:
+                return [held, (k, t)]  # two slow frames in a row: the scene really is slower
+            return [(k, t)]  # the held one was a stall: dropped
+        if spike:
+            self._held = (k, t)
+            return []
+        return [(k, t)]
+
+    def _add(self, sample: tuple[int, float]) -> None:
+        k, t = sample
+        self._samples.append(sample)
+        a = SMOOTHING
+        self._smoothed = t if self._smoothed is None else (1 - a) * self._smoothed + a * t
+        if self._ceiling is not None:
+            self._ceiling_age += 1
+            if self._ceiling_age > CEILING_FRAMES:
+                self._ceiling = None
+        if k >= 1 and t > OVERRUN_FACTOR * self.target_s:
+            if self._ceiling is None or k <= self._ceiling:
+                self._ceiling, self._ceiling_age = k, 0
+        self._fit = self._fit_model()
+        if self._ceiling is not None:
+            predicted = self._predict(self._ceiling)
+            if predicted is not None and predicted < self.target_s / OVERRUN_FACTOR:
+                self._ceiling = None  # the model now says it fits with room: lights got cheaper
+        self._k = self._decide(k, t)
+
+    def _fit_model(self) -> tuple[float, float | None]:
+        """(overhead, cost) from the weighted samples (and the remembered line)."""
+        ks = np.array([s[0] for s in self._samples], dtype=np.float64)
+        ts = np.array([s[1] for s in self._samples], dtype=np.float64)
+        w = self.memory ** np.arange(len(ks) - 1, -1, -1, dtype=np.float64)
+        spread = _weighted_var(ks, w) > 1e-6
+        if self._prior is not None:
+            a0, b0 = self._prior
+            kref = float(max(self._k, 1))
+            ks = np.append(ks, [0.0, kref])
+            ts = np.append(ts, [a0, a0 + b0 * kref])
+            w = np.append(w, [PRIOR_WEIGHT, PRIOR_WEIGHT])
+        if self._prior is None and not spread:
+            zero = ks == 0
+            overhead = float(np.average(ts[zero], weights=w[zero])) if zero.any() else 0.0
+            if zero.all():
+                return overhead, None
+            lit = ~zero
+            k_mean = float(np.average(ks[lit], weights=w[lit]))
+            t_mean = float(np.average(ts[lit], weights=w[lit]))
+            return overhead, max(t_mean - overhead, 0.0) / k_mean
+        k_mean, t_mean = np.average(ks, weights=w), np.average(ts, weights=w)
+        var = _weighted_var(ks, w)
+        b = float(np.average((ks - k_mean) * (ts - t_mean), weights=w) / var)
+        b = max(b, 0.0)
+        a = max(float(t_mean - b * k_mean), 0.0)
+        if spread and b > 0:
+            self._prior = (a, b)
+        return a, b
+
+    def _predict(self, k: int) -> float | None:
+        if self._fit is None:
+            return None
+        a, b = self._fit
+        if b is None:
+            return a if k == 0 else None
+        return a + b * k
+
+    def _decide(self, k_drawn: int, t: float) -> int:
+        k = self._k
+        a, b = self._fit
+        if b is None:  # only frames without lights so far: nothing known about a light's cost
+            return k
+        target = self.target_s
+        if b <= 1e-9 * target:  # lights cost nothing measurable (or the runtime paces frames)
+            k_fit = self.k_max
+        else:
+            k_fit = math.floor((target - a) / b)
+        k_fit = min(max(k_fit, 1), self.k_max)
+        if self._prior is None and k_fit <= k and k_drawn == k and t <= target:
+            k_fit = min(k + 1, self.k_max)  # probe: the first cost estimate is on the high side
+        if k_fit <= k:
+            return k_fit  # drop at once
+        cap = self._ceiling - 1 if self._ceiling is not None else self.k_max
+        return max(k, min(k_fit, 2 * k, cap))
+
+
+def _weighted_var(x: np.ndarray, w: np.ndarray) -> float:
+    mean = np.average(x, weights=w)
+    return float(np.average((x - mean) ** 2, weights=w))
+
+
+def view_moved(a: np.ndarray | None, b: np.ndarray | None, tolerance: float = 1e-4) -> bool:
+    """Whether two (4, 4) clip_from_world matrices show different views: True when either is
+    None or some entry differs by more than ``tolerance`` times the matrix's scale.
+
+    The scale is the largest entry of the first three columns of either matrix (the
+    projection's own scale: rotation times projection, independent of where the world origin
+    lies), so the rule reads "the view turned by more than about ``tolerance`` radians or moved
+    by more than about ``tolerance`` scene units": the translation column changes by the
+    projection times the eye's displacement however far the origin is.
+    """
+    if a is None or b is None:
+        return True
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != (4, 4) or b.shape != (4, 4):
+        raise ValueError(f"need two (4, 4) matrices, got {a.shape} and {b.shape}")
+    scale = max(float(np.abs(a[:, :3]).max()), float(np.abs(b[:, :3]).max()))
+    if not np.all(np.isfinite(a)) or not np.all(np.isfinite(b)):
+        return True
+    return float(np.abs(a - b).max()) > tolerance * scale
