@@ -116,7 +116,8 @@ class XRPreview:
         self.eyes: dict[str, EyeState] = {}
         self.identifier = EyeIdentifier()
         self.hud: HudDrawer | None = None
-        self.error = ""
+        self.error = ""  # why nothing is drawn (the panel shows it)
+        self.messages: list[str] = []  # the export's warnings (a missing BTF drawn plain, …)
         self.last_eye: EyeId | None = None
 
     # --- scene changes ----------------------------------------------------------------------
@@ -183,14 +184,16 @@ class XRPreview:
         eye.drawn = drawer.add_batch(view)
         eye.frames += 1
 
-        framebuffer.bind()  # our offscreens restored it already; make sure, and its viewport
-        gpu.state.viewport_set(*viewport)
-        state = EYE_OPAQUE if vr.show_world else EYE_OVER
-        drawer.draw_resolved(view, vr.exposure, not vr.show_world, state)
-        if vr.show_hud:
-            self._draw_hud(eye, eye_id, clip_from_view, view, vr)
-        gpu.state.blend_set("NONE")
-        gpu.state.depth_test_set("NONE")
+        # Making GPU objects (the first frame's offscreens, textures) may leave another
+        # framebuffer bound and the viewport changed: draw into the eye's explicitly.
+        with framebuffer.bind():
+            gpu.state.viewport_set(*viewport)
+            state = EYE_OPAQUE if vr.show_world else EYE_OVER
+            drawer.draw_resolved(view, vr.exposure, not vr.show_world, state)
+            if vr.show_hud:
+                self._draw_hud(eye, eye_id, clip_from_view, view, vr)
+            gpu.state.blend_set("NONE")
+            gpu.state.depth_test_set("NONE")
 
     def _viewer(self) -> np.ndarray | None:
         state = self.source.session_state()
@@ -204,7 +207,7 @@ class XRPreview:
         try:
             scene = export_scene(depsgraph, *size, cache=self.cache, viewport=True)
             self.drawer = ProgressiveDrawer(self.device, scene, previous=self.drawer)
-            self.error = ""
+            self.error, self.messages = "", list(scene.messages)
         except (BTFError, ShaderCompileError) as exc:
             if self.drawer is not None:
                 self.drawer.release()

@@ -130,6 +130,8 @@ class VIEW3D_PT_btf_vr(Panel):
             box.label(text=preview.summary(), icon="ERROR" if preview.error else "INFO")
             for key, eye in sorted(preview.eyes.items()):
                 box.label(text=f"{key}: {eye.budget.status()}")
+            for message in preview.messages:
+                box.label(text=message, icon="ERROR")
         if not context.window_manager.xr_session_settings.show_custom_overlays:
             layout.label(text="Custom overlays are off: BTF is not drawn", icon="ERROR")
 

@@ -70,3 +70,19 @@ def test_equal_settings_share_one_btf(bpy_module, fresh_scene):
     other, _ = _export(_material(bpy, "ShaderNodeBsdfDiffuse", Color=(0.2, 0.4, 0.7, 1.0)))
     assert same is first and other is not first
     np.testing.assert_allclose(other.albedo, [0.2, 0.4, 0.7], rtol=1e-6)
+
+
+def test_a_script_changing_btf_settings_reaches_the_evaluated_material(bpy_module, fresh_scene):
+    """What F12, the viewport and the VR preview export is the depsgraph's evaluated copy: a
+    change made from Python (not the UI) must reach it. Blender does not tag an ID when an
+    add-on's property is set from Python; the properties' update callback does."""
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_cube_add()
+    material = with_nodes(bpy.data.materials.new("Tagged"))
+    bpy.context.object.data.materials.append(material)
+    evaluated = bpy.context.object.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    assert evaluated.material_slots[0].material.btf.exposure == 0.0
+    material.btf.exposure, material.btf.source = 1.5, "//elsewhere.btfm"
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    copy = bpy.context.object.evaluated_get(depsgraph).material_slots[0].material.btf
+    assert (copy.exposure, copy.source) == (1.5, "//elsewhere.btfm")

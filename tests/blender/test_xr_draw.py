@@ -31,7 +31,7 @@ def vr_scene(bpy_module, fresh_scene, tmp_path):
     scene = sphere_on_ground(bpy, tmp_path, tmp_path / "ggx.btfm", segments=32, rings=16)
     bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.45, -1.4, -0.35))
     red = with_nodes(bpy.data.materials.new("Red"))
-    red.diffuse_color = (0.8, 0.1, 0.1, 1.0)
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.8, 0.1, 0.1, 1)
     bpy.context.object.data.materials.append(red)
     vr = scene.btf_vr
     vr.lights_mode, vr.lights_per_frame, vr.lights_total = "FIXED", 7, 24
@@ -39,10 +39,10 @@ def vr_scene(bpy_module, fresh_scene, tmp_path):
     return scene
 
 
-def eyes(profile_name: str = "simulated", head=HEAD):
+def eyes(profile_name: str = "simulated", head=HEAD, scale=SCALE):
     headsets = extension_submodule("btf_addon.render.headsets")
     look_at = extension_submodule("btf_addon.scene.scene").look_at
-    profile = headsets.profile(profile_name).scaled(SCALE)
+    profile = headsets.profile(profile_name).scaled(scale)
     return profile, headsets.stereo_eyes(profile, look_at(head, (0.0, 0.0, 0.0)))
 
 
@@ -171,10 +171,12 @@ def test_each_eye_draws_what_the_standalone_drawer_draws(bpy_module, vr_scene):
 def test_the_eyes_see_the_sphere_with_the_right_disparity(bpy_module, vr_scene):
     """A point in front of the viewer appears further right in the left eye than in the right
     eye. The sphere's image (its orange pixels) shifts by the disparity its centre's projection
-    predicts, within 1.5 px (the cube hides part of it, and pixel masks are whole pixels)."""
+    predicts, within 1.5 px (the cube hides part of it, and pixel masks are whole pixels). The
+    head is 2.5 m away and the eyes 160×120, for a disparity of a few pixels."""
     bpy = bpy_module
-    _, eye_list = eyes()
-    preview = new_preview(bpy, stand_in_session())
+    head = (0.0, -2.5, 0.5)
+    _, eye_list = eyes(head=head, scale=0.5)
+    preview = new_preview(bpy, stand_in_session(head))
     targets = EyeTargets(eye_list)
     try:
         for _ in range(4):
@@ -188,7 +190,7 @@ def test_the_eyes_see_the_sphere_with_the_right_disparity(bpy_module, vr_scene):
         clip = eye.clip_from_world @ np.array([0.0, 0.0, 0.0, 1.0])
         predicted.append((clip[0] / clip[3] * 0.5 + 0.5) * eye.width)
     shift = centroid_x(left, orange(left)) - centroid_x(right, orange(right))
-    assert predicted[0] - predicted[1] > 1.0  # the profile's IPD makes a visible disparity
+    assert predicted[0] - predicted[1] > 2.0  # the profile's IPD makes a visible disparity
     assert shift > 0
     assert abs(shift - (predicted[0] - predicted[1])) < 1.5, (shift, predicted)
 
@@ -326,22 +328,50 @@ def test_the_hud_floats_below_the_view_in_both_eyes(bpy_module, vr_scene):
     assert centres[0] > centres[1]
 
 
-def test_a_broken_material_is_reported_not_raised(bpy_module, vr_scene, tmp_path):
-    """A BTF source that does not exist: the callback draws nothing, keeps the message for the
-    panel, and the eye keeps Blender's image."""
+def test_a_missing_btf_is_drawn_plain_and_reported(bpy_module, vr_scene, tmp_path):
+    """A BTF source that does not exist: the export draws the object in its fallback look and
+    says why; the panel shows the message."""
     bpy = bpy_module
     bpy.data.materials["BTF"].btf.source = str(tmp_path / "missing.btfm")
     _, eye_list = eyes()
     preview = new_preview(bpy, stand_in_session())
-    targets = EyeTargets(eye_list[:1], clear=(0.1, 0.2, 0.3, 1.0))
+    targets = EyeTargets(eye_list[:1])
     try:
         targets.frame(preview)
         (image,) = targets.read()
     finally:
         preview.release()
         targets.free()
-    assert "missing.btfm" in preview.error
-    assert np.allclose(image, (0.1, 0.2, 0.3, 1.0), atol=1e-3)
+    assert preview.error == ""
+    assert any("missing.btfm" in m for m in preview.messages), preview.messages
+    assert np.all(np.isfinite(image)) and image[..., :3].max() > 0
+
+
+def test_a_failing_draw_is_kept_for_the_panel_not_raised(bpy_module, vr_scene, capsys):
+    """Whatever goes wrong inside the callback (here: the scene cannot be read) never leaves
+    it: Blender would print a traceback twice a frame. The message is kept for the panel,
+    printed once, and the eye keeps Blender's image."""
+    bpy = bpy_module
+    xr = extension_submodule("btf_addon.blender.xr")
+
+    def broken():
+        raise RuntimeError("the scene went away")
+
+    preview = xr.XRPreview(xr.SceneSource(broken, lambda: None))
+    _, eye_list = eyes()
+    clear = (0.1, 0.2, 0.3, 1.0)
+    targets = EyeTargets(eye_list[:1], clear=clear)
+    try:
+        targets.frame(preview)
+        targets.frame(preview)
+        (image,) = targets.read()
+    finally:
+        preview.release()
+        targets.free()
+    assert "the scene went away" in preview.error
+    assert capsys.readouterr().err.count("Traceback") == 1
+    assert np.allclose(image, clear, atol=1e-3)
+    del bpy
 
 
 def test_without_openxr_only_the_explanatory_panel_registers(bpy_module, installed):
