@@ -110,7 +110,24 @@ def on_session_start(*_args) -> None:
     state = getattr(context.window_manager, "xr_session_state", None)
     if state is None:  # no session being started (e.g. a handler called by hand)
         return
-    build_action_map(state, context)
+    if build_action_map(state, context):
+        settings = getattr(context.scene, "btf_vr", None)
+        if settings is not None and settings.controller_actions == "BLENDER":
+            activate(context, use_btf=False)
+
+
+#: The action set of Blender's VR Scene Inspection add-on (teleport, fly, grab).
+BLENDER_ACTION_SET = "blender_default"
+
+
+def activate(context, use_btf: bool) -> bool:
+    """Make our action set or Blender's navigation the active one in the running session
+    (Blender syncs only the active set, so the controllers do one or the other). False when no
+    session runs or the runtime refuses (the other set was never created)."""
+    state = getattr(context.window_manager, "xr_session_state", None)
+    if state is None:
+        return False
+    return bool(state.active_action_set_set(context, ACTION_SET if use_btf else BLENDER_ACTION_SET))
 
 
 # ------------------------------------------------------------------ events → edits

@@ -58,6 +58,20 @@ class BTFVRSettings(PropertyGroup):
         default=True,
         description="Material, lights and frame time on a panel floating below the view",
     )
+    controller_actions: EnumProperty(
+        name="Controllers",
+        items=(
+            ("BTF", "BTF Actions", "Controllers change materials, exposure and the environment"),
+            (
+                "BLENDER",
+                "Blender Navigation",
+                "Controllers teleport, fly and grab as in "
+                "Blender's VR Scene Inspection (its add-on must be enabled)",
+            ),
+        ),
+        default="BTF",
+        update=lambda settings, context: _switch_actions(settings, context),
+    )
     show_world: BoolProperty(
         name="BTF World",
         default=True,
@@ -72,6 +86,14 @@ class BTFVRSettings(PropertyGroup):
     @classmethod
     def unregister(cls) -> None:
         del bpy.types.Scene.btf_vr
+
+
+def _switch_actions(settings, context) -> None:
+    """Blender syncs one action set at a time: switch it in a running session."""
+    if bpy.types.XrSessionState.is_running(context):
+        from . import xr_actions
+
+        xr_actions.activate(context, use_btf=settings.controller_actions == "BTF")
 
 
 class BTF_OT_vr_session_toggle(Operator):
@@ -124,6 +146,7 @@ class VIEW3D_PT_btf_vr(Panel):
         col.prop(settings, "exposure")
         col.prop(settings, "show_hud")
         col.prop(settings, "show_world")
+        col.prop(settings, "controller_actions")
         preview = xr.preview()
         if running and preview is not None:
             box = layout.box()

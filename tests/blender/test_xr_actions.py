@@ -583,3 +583,18 @@ def test_invoke_applies_a_press_action_at_once(bpy_module, xr_registered):
     # Without an XR event (a script, a key press): refused with the reason.
     assert operator.invoke(context, SimpleNamespace(type="LEFTMOUSE", xr=None)) == {"CANCELLED"}
     assert "VR controllers" in operator.reports[-1][1]
+
+
+def test_the_panel_switches_between_our_actions_and_blenders_navigation(bpy_module, xr_registered):
+    """Blender syncs one action set at a time: ``activate`` makes ours or the VR add-on's
+    (teleport, fly, grab) the active one, and says False without a session."""
+    session = StandInSession(bpy_module)
+    context = SimpleNamespace(window_manager=SimpleNamespace(xr_session_state=session))
+    assert xr_registered.activate(context, use_btf=False) is True
+    assert xr_registered.activate(context, use_btf=True) is True
+    assert session.log[-2:] == [
+        ("active_action_set_set", "blender_default"),
+        ("active_action_set_set", _bindings().ACTION_SET),
+    ]
+    no_session = SimpleNamespace(window_manager=SimpleNamespace(xr_session_state=None))
+    assert xr_registered.activate(no_session, use_btf=True) is False
