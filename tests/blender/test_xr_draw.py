@@ -328,6 +328,32 @@ def test_the_hud_floats_below_the_view_in_both_eyes(bpy_module, vr_scene):
     assert centres[0] > centres[1]
 
 
+def test_the_wiimote_help_appears_on_the_hud_while_shown(bpy_module, vr_scene):
+    """The Wiimote's help overlay is a 2D viewport overlay outside VR; in the headset its rows
+    are on the HUD quad (one more line per binding) while the Wiimote session shows help."""
+    bpy = bpy_module
+    overlay = extension_submodule("btf_addon.blender.wiimote_overlay")
+    bindings = extension_submodule("btf_addon.controllers.bindings").default_bindings()
+    vr_scene.btf_vr.show_hud = True
+    _, eye_list = eyes()
+    lines = {}
+    for visible in (False, True):
+        overlay.show(lambda visible=visible: (visible, bindings))
+        preview = new_preview(bpy, stand_in_session())
+        targets = EyeTargets(eye_list[:1])
+        try:
+            targets.frame(preview)
+            (eye,) = preview.eyes.values()
+            lines[visible] = (list(eye.hud_lines), eye.hud_image.shape)
+        finally:
+            overlay.hide()
+            preview.release()
+            targets.free()
+    assert len(lines[True][0]) == len(lines[False][0]) + len(bindings) + 1
+    assert lines[True][0][len(lines[False][0])].startswith("Wiimote")
+    assert lines[True][1][0] > lines[False][1][0]  # a taller HUD image
+
+
 def test_a_missing_btf_is_drawn_plain_and_reported(bpy_module, vr_scene, tmp_path):
     """A BTF source that does not exist: the export draws the object in its fallback look and
     says why; the panel shows the message."""
