@@ -31,13 +31,17 @@ The rule (one sample per call, the interval ``t`` of the frame that drew ``k`` l
    through the new interval (a lit frame gives the new cost per light), so K follows a change
    in one step instead of averaging two regimes. Before any spread, the overhead is taken from
    ``k`` = 0 frames if there were any, else 0, so the first estimate of the cost is on the
-   high side (K too small, never too large).
+   high side (K too small, never too large). A fit whose slope is not positive (more lights
+   were not slower: a paced runtime, or the overhead moved under them) keeps the remembered
+   cost, or leaves the cost unknown before there is one.
 3. **Target.** ``target = budget · (1 + tolerance)``, ``tolerance`` = 0.02: a runtime that
    paces a 90 Hz display returns 11.1 ms intervals against the 11 ms default, which must count
    as on budget. K_fit = floor((target − overhead) / cost), clamped to [1, k_max].
 4. **Step.** K grows to K_fit by at most ×2 per frame; it drops to K_fit at once. Before the
    model has seen two K, a frame that drew the full K within the target probes K + 1 (the
-   high-side cost estimate alone would never try more). A frame more than 25 % over the target
+   high-side cost estimate alone would never try more); while the cost is unknown, a lit
+   frame within the target doubles K and one over it scales K down in proportion. A frame
+   more than 25 % over the target
    (a missed frame when the runtime paces frames, where the interval jumps to 2 periods and
    the straight-line model does not hold) sets a ceiling: K stays below the K that overran for
    ``CEILING_FRAMES`` accepted frames, so a paced session settles with a rare probe instead of
@@ -123,8 +127,9 @@ class FrameBudget:
 
     @property
     def model(self) -> tuple[float, float | None] | None:
-        """The fitted (overhead_s, cost_s per light), cost None while only frames without
-        lights were seen; None before any sample."""
+        """The fitted (overhead_s, cost_s per light), cost None while the intervals have not
+        shown what a light costs (only unlit frames so far, or no slope yet); None before
+        any sample."""
         return self._fit
 
     @property
@@ -244,7 +249,8 @@ class FrameBudget:
             self._prior = (0.0, t / k)
 
     def _fit_model(self) -> tuple[float, float | None]:
-        """(overhead, cost) from the weighted samples (and the remembered line)."""
+        """(overhead, cost) from the weighted samples and the remembered line; remembers the
+        new line when the samples spread over two or more K."""
         ks = np.array([s[0] for s in self._samples], dtype=np.float64)
         ts = np.array([s[1] for s in self._samples], dtype=np.float64)
         w = self.memory ** np.arange(len(ks) - 1, -1, -1, dtype=np.float64)
