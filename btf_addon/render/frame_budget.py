@@ -16,23 +16,32 @@ The rule (one sample per call, the interval ``t`` of the frame that drew ``k`` l
 1. **Outliers.** A ``t`` more than ``SPIKE_FACTOR`` (3) times the model's prediction and over
    the budget is held back: if the next interval is normal again it was a stall (Blender busy,
    the session paused, a shader compile) and is dropped; if the next one is slow too, both are
-   kept: the scene really got slower. Non-positive intervals (clock glitches) are dropped.
+   kept: the scene really got slower, and the next ``TRUST_FRAMES`` (3) intervals are kept
+   untested while the model learns the new times. Non-positive intervals (clock glitches) are
+   dropped.
 2. **Model.** ``t ≈ overhead + cost · k``, fitted by weighted least squares to the recent
    samples with forgetting (weight ``memory ** age``, ``memory`` = 0.8: about five frames of
    memory, so a change of scene or resolution is followed within a few frames). Frames with
    ``k`` = 0 (converged, nothing drawn) measure the overhead alone. Once the samples have
    spread over two or more K, the fit is remembered and enters later fits as two light
    pseudo-samples on its line (at k = 0 and at the current K): when K then stays put, the
-   fresh samples at that K move the line (a change of cost shows at once) while the
-   remembered intercept keeps it determined. Before any spread, the overhead is taken from
+   fresh samples at that K move the line while the remembered intercept keeps it determined.
+   An interval more than ``CHANGE`` (25 %) off the prediction means the times changed (scene,
+   resolution, load): the old samples are forgotten and the line pivots on its overhead
+   through the new interval (a lit frame gives the new cost per light), so K follows a change
+   in one step instead of averaging two regimes. Before any spread, the overhead is taken from
    ``k`` = 0 frames if there were any, else 0, so the first estimate of the cost is on the
-   high side (K too small, never too large).
+   high side (K too small, never too large). A fit whose slope is not positive (more lights
+   were not slower: a paced runtime, or the overhead moved under them) keeps the remembered
+   cost, or leaves the cost unknown before there is one.
 3. **Target.** ``target = budget · (1 + tolerance)``, ``tolerance`` = 0.02: a runtime that
    paces a 90 Hz display returns 11.1 ms intervals against the 11 ms default, which must count
    as on budget. K_fit = floor((target − overhead) / cost), clamped to [1, k_max].
 4. **Step.** K grows to K_fit by at most ×2 per frame; it drops to K_fit at once. Before the
    model has seen two K, a frame that drew the full K within the target probes K + 1 (the
-   high-side cost estimate alone would never try more). A frame more than 25 % over the target
+   high-side cost estimate alone would never try more); while the cost is unknown, a lit
+   frame within the target doubles K and one over it scales K down in proportion. A frame
+   more than 25 % over the target
    (a missed frame when the runtime paces frames, where the interval jumps to 2 periods and
    the straight-line model does not hold) sets a ceiling: K stays below the K that overran for
    ``CEILING_FRAMES`` accepted frames, so a paced session settles with a rare probe instead of
@@ -60,6 +69,8 @@ CEILING_FRAMES = 240  # accepted frames a ceiling holds (about 2.7 s at 90 Hz)
 WINDOW = 32  # samples kept; memory ** 32 is negligible for the default memory
 PRIOR_WEIGHT = 0.3  # weight of each of the remembered line's two pseudo-samples
 SMOOTHING = 0.3  # EWMA weight of the newest interval in ``frame_time_s``
+TRUST_FRAMES = 3  # after two slow frames in a row, the next ones are believed without test
+CHANGE = 0.25  # an interval this far (relative) from the prediction means the times changed
 
 
 class FrameBudget:
@@ -116,8 +127,9 @@ class FrameBudget:
 
     @property
     def model(self) -> tuple[float, float | None] | None:
-        """The fitted (overhead_s, cost_s per light), cost None while only frames without
-        lights were seen; None before any sample."""
+        """The fitted (overhead_s, cost_s per light), cost None while the intervals have not
+        shown what a light costs (only unlit frames so far, or no slope yet); None before
+        any sample."""
         return self._fit
 
     @property
@@ -150,6 +162,7 @@ class FrameBudget:
         self._last_call: float | None = None
         self._samples: deque[tuple[int, float]] = deque(maxlen=WINDOW)
         self._held: tuple[int, float] | None = None
+        self._trusting = 0  # frames accepted without the spike test after a confirmed change
         self._smoothed: float | None = None
         self._fit: tuple[float, float | None] | None = None
         self._prior: tuple[float, float] | None = None  # the last fit over spread samples
@@ -183,8 +196,14 @@ class FrameBudget:
         held, self._held = self._held, None
         if held is not None:
             if spike:
-                return [held, (k, t)]  # two slow frames in a row: the scene really is slower
+                # two slow frames in a row: the scene really is slower, and the model will be
+                # wrong for a few frames while it learns how: believe those frames too
+                self._trusting = TRUST_FRAMES
+                return [held, (k, t)]
             return [(k, t)]  # the held one was a stall: dropped
+        if self._trusting:
+            self._trusting -= 1
+            return [(k, t)]
         if spike:
             self._held = (k, t)
             return []
@@ -192,6 +211,7 @@ class FrameBudget:
 
     def _add(self, sample: tuple[int, float]) -> None:
         k, t = sample
+        self._follow_change(k, t)
         self._samples.append(sample)
         a = SMOOTHING
         self._smoothed = t if self._smoothed is None else (1 - a) * self._smoothed + a * t
@@ -209,8 +229,28 @@ class FrameBudget:
                 self._ceiling = None  # the model now says it fits with room: lights got cheaper
         self._k = self._decide(k, t)
 
+    def _follow_change(self, k: int, t: float) -> None:
+        """When an interval misses the prediction by more than ``CHANGE`` (the scene, the
+        resolution or the machine's load changed), forget the samples of the old times and
+        pivot the remembered line on its overhead through this one: a lit frame gives the new
+        cost, a frame without lights the new overhead."""
+        if self._prior is None:
+            return  # no informed model yet: its first, high-side guesses are meant to be wrong
+        predicted = self._predict(k)
+        if predicted is None or abs(t - predicted) <= CHANGE * predicted:
+            return
+        self._samples.clear()
+        a0 = self._fit[0]
+        if k == 0:
+            self._prior = (t, self._prior[1])
+        elif t > a0:
+            self._prior = (a0, (t - a0) / k)
+        else:  # faster than the overhead alone was: say so on the high side of the cost
+            self._prior = (0.0, t / k)
+
     def _fit_model(self) -> tuple[float, float | None]:
-        """(overhead, cost) from the weighted samples (and the remembered line)."""
+        """(overhead, cost) from the weighted samples and the remembered line; remembers the
+        new line when the samples spread over two or more K."""
         ks = np.array([s[0] for s in self._samples], dtype=np.float64)
         ts = np.array([s[1] for s in self._samples], dtype=np.float64)
         w = self.memory ** np.arange(len(ks) - 1, -1, -1, dtype=np.float64)
@@ -233,9 +273,16 @@ class FrameBudget:
         k_mean, t_mean = np.average(ks, weights=w), np.average(ts, weights=w)
         var = _weighted_var(ks, w)
         b = float(np.average((ks - k_mean) * (ts - t_mean), weights=w) / var)
-        b = max(b, 0.0)
+        if b <= 1e-9 * self.budget_s:
+            # Frames with more lights were not slower: the intervals do not show the lights'
+            # cost (a paced runtime, or the overhead changed under the lights). Keep the
+            # remembered cost through the samples' mean, or say the cost is unknown.
+            if self._prior is None:
+                return max(float(t_mean), 0.0), None
+            b = self._prior[1]
+            return max(float(t_mean - b * k_mean), 0.0), b
         a = max(float(t_mean - b * k_mean), 0.0)
-        if spread and b > 0:
+        if spread:
             self._prior = (a, b)
         return a, b
 
@@ -250,19 +297,19 @@ class FrameBudget:
     def _decide(self, k_drawn: int, t: float) -> int:
         k = self._k
         a, b = self._fit
-        if b is None:  # only frames without lights so far: nothing known about a light's cost
-            return k
         target = self.target_s
-        if b <= 1e-9 * target:  # lights cost nothing measurable (or the runtime paces frames)
-            k_fit = self.k_max
-        else:
-            k_fit = math.floor((target - a) / b)
-        k_fit = min(max(k_fit, 1), self.k_max)
+        cap = self._ceiling - 1 if self._ceiling is not None else self.k_max
+        if b is None:  # the intervals have not shown what a light costs
+            if k_drawn == 0:
+                return k  # nothing drawn: nothing learnt
+            if t <= target:
+                return max(k, min(2 * k, cap, self.k_max))  # it fits: try more
+            return max(1, min(k, math.floor(k * target / t)))  # it does not: scale down
+        k_fit = min(max(math.floor((target - a) / b), 1), self.k_max)
         if self._prior is None and k_fit <= k and k_drawn == k and t <= target:
             k_fit = min(k + 1, self.k_max)  # probe: the first cost estimate is on the high side
         if k_fit <= k:
             return k_fit  # drop at once
-        cap = self._ceiling - 1 if self._ceiling is not None else self.k_max
         return max(k, min(k_fit, 2 * k, cap))
 
 
