@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Checks the shared libraries that Blender's bpy module and the EGL/OpenGL tests need.
+# Checks the shared libraries that Blender's bpy module and the EGL/OpenGL tests need, and what
+# the OpenXR test runtime is built with.
 # On Debian/Ubuntu, as root, installs the missing ones (saying which); otherwise prints the
 # apt-get line and fails. Nothing is installed when everything is already present.
 set -euo pipefail
@@ -17,6 +18,12 @@ for lib in "${!NEEDED[@]}"; do
 done
 # llvmpipe (software OpenGL through EGL) lives in the Mesa DRI package.
 compgen -G "/usr/lib/*/dri/swrast_dri.so" >/dev/null || missing+=(libgl1-mesa-dri)
+# The tests' OpenXR runtime (tests/xr_runtime) is C, built with the system compiler against the
+# OpenXR headers (the loader itself comes with pyopenxr).
+command -v cc >/dev/null || missing+=(gcc)
+[ -f /usr/include/openxr/openxr_platform.h ] || missing+=(libopenxr-dev)
+[ -f /usr/include/EGL/egl.h ] || missing+=(libegl-dev)
+[ -f /usr/include/GL/gl.h ] || missing+=(libgl-dev)
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "system libraries: all present"
