@@ -20,6 +20,7 @@ MODULES = (
     "wiimote_overlay",
     "wiimote_operator",
     "xr",  # after wiimote_overlay: the VR HUD shows the Wiimote's help rows
+    "xtal_bridge",  # needs no OpenXR in Blender's build: the loader comes with pyopenxr
 )
 
 

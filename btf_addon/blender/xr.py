@@ -90,6 +90,7 @@ class EyeState:
     frames: int = 0
     hud_lines: list[str] = field(default_factory=list)
     hud_image: np.ndarray | None = None
+    hud: HudDrawer | None = None
     hud_time: float = -1.0
     gaze_material: str = ""
 
@@ -115,7 +116,6 @@ class XRPreview:
         self.scene_dirty = True
         self.eyes: dict[str, EyeState] = {}
         self.identifier = EyeIdentifier()
-        self.hud: HudDrawer | None = None
         self.error = ""  # why nothing is drawn (the panel shows it)
         self.messages: list[str] = []  # the export's warnings (a missing BTF drawn plain, …)
         self.last_eye: EyeId | None = None
@@ -130,12 +130,12 @@ class XRPreview:
         for eye in self.eyes.values():
             if eye.view is not None:
                 eye.view.release()
+            if eye.hud is not None:
+                eye.hud.release()
         self.eyes.clear()
         if self.drawer is not None:
             self.drawer.release()
-        if self.hud is not None:
-            self.hud.release()
-        self.drawer = self.hud = None
+        self.drawer = None
         self.scene_dirty = True
 
     # --- one eye ------------------------------------------------------------------------------
@@ -243,13 +243,13 @@ class XRPreview:
                 eye.hud_lines = lines[:MAX_LINES]
                 eye.hud_image = raster_text(eye.hud_lines)
             eye.hud_time = now
-        if self.hud is None:
-            self.hud = HudDrawer(self.device)
+        if eye.hud is None:  # one per eye: the eyes' texts differ (their own lights, times)
+            eye.hud = HudDrawer(self.device)
         image = eye.hud_image
-        self.hud.set_image(image)  # uploads only when the pixels differ from the last eye's
+        eye.hud.set_image(image)  # uploads only when this eye's text changed
         scale = self._navigation_scale()
         corners = hud_quad(eye_id.offset / scale, image.shape[1] / image.shape[0]) * scale
-        self.hud.draw(clip_from_view, corners)
+        eye.hud.draw(clip_from_view, corners)
 
     def _navigation_scale(self) -> float:
         state = self.source.session_state()

@@ -1,0 +1,163 @@
+"""The XTAL Bridge operator's controller (blender/xtal_bridge.py) in background Blender.
+
+Its wiring — export, the bridge's own thread, re-export when the depsgraph reports a change,
+controller actions applied as undoable edits, failures surfaced, a clean stop — is driven here
+with a bridge that stands in for ``xr.bridge.XRBridge`` at its Python interface (the thread
+calls; no OpenXR). The real bridge against the OpenXR test runtime is tests/xr."""
+
+from __future__ import annotations
+
+import threading
+import time
+from types import SimpleNamespace
+
+import pytest
+from blender_helpers import extension_submodule, sphere_on_ground
+
+
+class StandInBridge:
+    """``XRBridge``'s interface: start/run_frame/close on the bridge thread; set_scene,
+    request_stop, status, pop_edits from Blender's. ``fail_start``: start raises that."""
+
+    def __init__(self, scene, render_settings, settings, fail_start=None, edits=()):
+        self.scenes = [scene]
+        self.render_settings, self.settings = render_settings, settings
+        self.fail_start = fail_start
+        self.edits = list(edits)
+        self.frames = 0
+        self.stop = threading.Event()
+        self.closed = False
+        self.thread_names: set[str] = set()
+        self.status = SimpleNamespace(
+            runtime="stand-in",
+            state="FOCUSED",
+            fps=90.0,
+            lights_per_frame={"left": 5},
+            lights_done={},
+            eye_size=(64, 48),
+            values_from="runtime",
+            message="",
+        )
+
+    def start(self):
+        self.thread_names.add(threading.current_thread().name)
+        if self.fail_start is not None:
+            raise self.fail_start
+
+    def run_frame(self):
+        self.thread_names.add(threading.current_thread().name)
+        self.frames += 1
+        time.sleep(0.002)
+        return not self.stop.is_set()
+
+    def set_scene(self, scene):
+        self.scenes.append(scene)
+
+    def request_stop(self):
+        self.stop.set()
+
+    def close(self):
+        self.thread_names.add(threading.current_thread().name)
+        self.closed = True
+
+    def pop_edits(self):
+        edits, self.edits = self.edits, []
+        return edits
+
+
+@pytest.fixture
+def bridge_scene(bpy_module, fresh_scene, tmp_path):
+    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.container import write_container
+
+    write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
+    return sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm", segments=16, rings=8)
+
+
+def controller_with(bpy, scene, **stand_in):
+    module = extension_submodule("btf_addon.blender.xtal_bridge")
+    made = []
+
+    def make(exported, render_settings, settings):
+        made.append(StandInBridge(exported, render_settings, settings, **stand_in))
+        return made[-1]
+
+    return module.BridgeController(scene, bpy.context.view_layer, make_bridge=make), made
+
+
+def test_the_bridge_runs_on_its_own_thread_and_gets_the_scenes_settings(bpy_module, bridge_scene):
+    bpy = bpy_module
+    bridge_scene.btf_bridge.lights_total, bridge_scene.btf_bridge.frame_budget_ms = 64, 0.0
+    bridge_scene.btf_bridge.resolution_scale = 0.5
+    controller, made = controller_with(bpy, bridge_scene)
+    controller.start()
+    try:
+        assert controller.tick()
+        (bridge,) = made
+        assert bridge.settings.lights_total == 64 and bridge.settings.budget_s is None
+        assert bridge.settings.resolution_scale == 0.5
+        assert bridge.render_settings.lights_total == bridge_scene.btf_render.lights_total
+        assert len(bridge.scenes[0].materials) == 2  # the BTF sphere and the plain ground
+        assert "stand-in" in controller.status_text() and "90 FPS" in controller.status_text()
+    finally:
+        controller.stop()
+    assert not controller.thread.is_alive() and bridge.closed
+    assert bridge.thread_names == {"btf-xtal-bridge"}  # never Blender's thread
+    assert controller._on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post
+
+
+def test_a_change_in_blender_reaches_the_running_bridge(bpy_module, bridge_scene):
+    bpy = bpy_module
+    controller, made = controller_with(bpy, bridge_scene)
+    controller.start()
+    try:
+        controller.tick()
+        assert len(made[0].scenes) == 1
+        bpy.data.objects["Sphere"].location.x += 0.5
+        bpy.context.view_layer.update()  # runs depsgraph_update_post, as the UI would
+        controller.tick()
+        assert len(made[0].scenes) == 2
+        moved = made[0].scenes[-1].meshes[0].world_from_object[0, 3]
+        assert moved == pytest.approx(0.5)
+    finally:
+        controller.stop()
+
+
+def test_controller_actions_become_undoable_scene_edits(bpy_module, bridge_scene):
+    """An exposure press from the headset's controller changes the active object's BTF
+    exposure, as the Wiimote's and Blender's VR session's do."""
+    bpy = bpy_module
+    actions = extension_submodule("btf_addon.controllers.actions")
+    bpy.context.view_layer.objects.active = bpy.data.objects["Sphere"]
+    press = actions.Edit(0.0, actions.Action.EXPOSURE_UP, 1.0 / 3.0)
+    controller, _ = controller_with(bpy, bridge_scene, edits=[press])
+    controller.start()
+    try:
+        controller.tick()
+    finally:
+        controller.stop()
+    assert bpy.data.materials["BTF"].btf.exposure == pytest.approx(1.0 / 3.0)
+
+
+def test_a_failure_to_start_is_reported_with_its_message(bpy_module, bridge_scene):
+    bpy = bpy_module
+    error = RuntimeError("no OpenXR runtime: install SteamVR or Monado")
+    controller, _ = controller_with(bpy, bridge_scene, fail_start=error)
+    controller.start()
+    controller.thread.join(5.0)
+    assert controller.tick() is False
+    assert controller.error is error
+    assert controller._on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post
+
+
+def test_the_operator_and_panel_register_without_blenders_own_openxr(bpy_module, installed):
+    bpy = bpy_module
+    assert hasattr(bpy.types, "BTF_OT_xtal_bridge") and hasattr(bpy.types.Scene, "btf_bridge")
+    xr = extension_submodule("btf_addon.blender.xr")
+    xr.unregister()
+    try:
+        xr.register(xr_available=False)
+        assert hasattr(bpy.types, "BTF_OT_xtal_bridge")  # a separate module: always there
+    finally:
+        xr.unregister()
+        xr.register()
