@@ -79,7 +79,8 @@ def head_from_camera(world_from_camera: np.ndarray) -> np.ndarray:
 class StereoCapture:
     """Both eyes of a capture. ``images``: {"left", "right"} → (H, W, 3) float32 linear, row 0
     at the top; ``eyes``: [left, right] (render/headsets.Eye); ``lights``: how many virtual
-    lights each eye accumulated; ``settings``: the render settings they came from."""
+    lights each eye accumulated; ``settings``: the render settings they came from; ``files``:
+    the images written; ``messages``: the scene export's warnings, for the caller to show."""
 
     profile: HeadsetProfile
     eyes: list[Eye]
@@ -89,6 +90,7 @@ class StereoCapture:
     near: float
     far: float
     files: list[Path] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
 
     def side_by_side(self) -> np.ndarray:
         """(H, 2W, 3) float32: [left | right]."""
@@ -213,11 +215,11 @@ def write_stereo(
 
 
 def describe(capture: StereoCapture) -> str:
-    """One line for reports: profile, sizes, IPD, lights."""
+    """One line for reports: profile, sizes, IPD, FOV."""
     p = capture.profile
     fov = p.fov_left_eye
     h_deg = math.degrees(fov.angle_right - fov.angle_left)
     return (
         f"{p.name}: 2 × {p.eye_width}×{p.eye_height}, IPD {p.ipd_m * 1000:.0f} mm, "
-        f"{h_deg:.0f}° per eye horizontally, {capture.lights} lights"
+        f"{h_deg:.0f}° per eye horizontally"
     )
