@@ -16,9 +16,11 @@ FOV, eye poses, sizes and lights. Every file is written atomically (core/fileio)
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -141,6 +143,42 @@ def render_stereo(
     eyes = stereo_eyes(profile, head_from_camera(cam.world_from_camera), near, far)
     # The eyes are parallel: both see the headlight from the head's +z, as in the VR preview.
     lights = frame_lights(settings, scene, head_from_camera(cam.world_from_camera)[:3, 2])
+    if device is not None:  # the caller's device, in the caller's context
+        return _draw_eyes(scene, settings, profile, eyes, lights, device, near, far)
+    with _current_context_kept():
+        return _draw_eyes(scene, settings, profile, eyes, lights, None, near, far)
+
+
+@contextmanager
+def _current_context_kept() -> Iterator[None]:
+    """Leave the thread's current EGL context as it was found. Our own moderngl context,
+    once released, leaves none current, and Blender (epoxy) aborts the process on its next GL
+    call when it finds none: background Blender after a render, or at exit."""
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+    except OSError:  # no EGL: moderngl cannot have used it either
+        yield
+        return
+    for name in ("eglGetCurrentDisplay", "eglGetCurrentContext", "eglGetCurrentSurface"):
+        getattr(egl, name).restype = ctypes.c_void_p
+    egl.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+    egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+    draw, read = 0x3059, 0x305A  # EGL_DRAW, EGL_READ
+    context = egl.eglGetCurrentContext()
+    current = (
+        egl.eglGetCurrentDisplay(),
+        egl.eglGetCurrentSurface(draw),
+        egl.eglGetCurrentSurface(read),
+        context,
+    )
+    try:
+        yield
+    finally:
+        if context:
+            egl.eglMakeCurrent(*current)
+
+
+def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> StereoCapture:
     own_device = device is None
     if own_device:
         from .moderngl_device import ModernGLDevice

@@ -102,3 +102,33 @@ def test_errors_are_reported(bpy_module, fresh_scene, tmp_path):
     with pytest.raises(RuntimeError, match=r"must end in \.exr or \.png"):
         bpy.ops.btf.stereo_capture(profile="simulated", filepath=str(tmp_path / "x.jpg"))
     assert not list(tmp_path.glob("x*"))
+
+
+def test_blenders_gpu_device_draws_the_same_eyes(bpy_module, saved_scene):
+    """Inside Blender's UI the operator draws on Blender's ``gpu`` module; in the background
+    on moderngl. Both are the one drawer with the same shaders and data on two OpenGL
+    pipelines: the eyes agree to single-precision rounding (as F12's GLSL fallback and the
+    standalone renderer do in test_engine.py). A capture on its own moderngl context gives
+    Blender's context back: Blender draws again afterwards (epoxy aborts the process when it
+    finds no current context)."""
+    from blender_helpers import extension_submodule, init_gpu_module
+
+    bpy = bpy_module
+    init_gpu_module(bpy)
+    capture = extension_submodule("btf_addon.gl.stereo_capture")
+    export = extension_submodule("btf_addon.blender.export")
+    gpu_draw = extension_submodule("btf_addon.blender.gpu_draw")
+    settings = extension_submodule("btf_addon.render.settings").RenderSettings(lights_total=24)
+    prof = capture.capture_profile(
+        extension_submodule("btf_addon.render.headsets").profile("simulated"), 32
+    )
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), 32, 24)
+    on_gpu = capture.render_stereo(exported, settings, prof, gpu_draw.BlenderGPUDevice())
+    on_moderngl = capture.render_stereo(exported, settings, prof)
+    for eye in ("left", "right"):
+        a, b = on_gpu.images[eye], on_moderngl.images[eye]
+        assert a.shape == b.shape == (24, 32, 3)
+        assert np.abs(a - b).max() < 1e-3 * b.max(), eye
+        assert b[12].max() > 0.05  # the sphere is there and lit
+    again = capture.render_stereo(exported, settings, prof, gpu_draw.BlenderGPUDevice())
+    np.testing.assert_array_equal(again.images["left"], on_gpu.images["left"])
