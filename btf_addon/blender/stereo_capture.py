@@ -170,6 +170,11 @@ class BTF_OT_stereo_capture(Operator):
         suffix = ".exr" if self.file_format == "EXR" else ".png"
         return blend.with_name(f"{blend.stem}_stereo_{self.profile}{suffix}")
 
+    def invoke(self, context, event):
+        # From the menu or F3: choose the headset and size first (the default is the
+        # headset's full resolution).
+        return context.window_manager.invoke_props_dialog(self)
+
     def execute(self, context):
         device = None
         if not bpy.app.background:  # the UI's GPU context is current in an operator

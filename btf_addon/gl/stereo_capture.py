@@ -184,14 +184,12 @@ def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> Ste
         from .moderngl_device import ModernGLDevice
 
         device = ModernGLDevice()
-    drawer = None
-    views: list[ViewAccumulation] = []
+    drawer = view = None
     try:
         drawer = ProgressiveDrawer(device, scene)
         images = {}
-        for eye in eyes:
+        for eye in eyes:  # one eye's targets at a time: 3 RGBA32F images of the eye's size
             view = ViewAccumulation(device, eye.width, eye.height)
-            views.append(view)
             view.set_lights(lights, BATCH)
             drawer.restart(view, eye.clip_from_world, [*eye.position, 1.0])
             while drawer.add_batch(view):
@@ -199,8 +197,10 @@ def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> Ste
             drawer.resolve(view)
             # The drawer's row 0 is the bottom (OpenGL); files start at the top.
             images[eye.name] = np.ascontiguousarray(view.read()[::-1, :, :3])
+            view.release()
+            view = None
     finally:
-        for view in views:
+        if view is not None:
             view.release()
         if drawer is not None:
             drawer.release()
