@@ -19,6 +19,7 @@ MODULES = (
     "ui",
     "wiimote_overlay",
     "wiimote_operator",
+    "stereo_capture",
     "xr",  # after wiimote_overlay: the VR HUD shows the Wiimote's help rows
     "xtal_bridge",  # needs no OpenXR in Blender's build: the loader comes with pyopenxr
 )

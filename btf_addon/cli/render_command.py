@@ -5,6 +5,8 @@ The file is opened in Blender (the bpy module), its scene keeps every setting it
 management, passes), the flags given override them in the UI's words, and
 ``bpy.ops.render.render(write_still=True)`` renders and saves the image, as F12 + Save and
 ``blender -b file.blend -f 1`` do. There is no second render path here to drift from F12.
+``--stereo`` opens the file the same way but is no F12: it captures what a headset would see,
+through the Stereo Capture operator's own code (blender/stereo_capture.py).
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..core.errors import BTFError
+from ..gl.stereo_capture import LAYOUTS, capture_profile
+from ..render.headsets import PROFILES, profile
 from ..render.settings import FinalMode, Lighting, RenderSettings
 
 #: Output suffix → Blender image settings: 8-bit RGBA PNG (through the view transform) or
@@ -39,6 +43,16 @@ a scene left on Blender's default AgX view gets AgX's tone curve. The demo scene
 Devices: OpenCL as chosen by --device or the add-on preference; with no OpenCL device at all,
 F12 warns and draws with the GLSL viewport path (no shadows). A kernel that fails to compile
 fails the render (exit code 2, with the compiler's first lines).
+
+Stereo (--stereo PROFILE): instead of F12, what a headset would show, the "VR screenshot": the
+same file or demo scene is opened and exported, the scene camera is the head, and each eye of
+the headset profile (its IPD, per-eye field of view and resolution; --eye-width scales the
+resolution keeping its aspect) is drawn by the GLSL viewport drawer on a headless OpenGL
+context with all N virtual lights (--lighting, --lights, --seed apply; no shadows). Output:
+--layout side-by-side (left | right in OUTPUT) or per-eye (NAME_left.EXT, NAME_right.EXT),
+and NAME.json beside it with the profile, IPD, per-eye FOV, eye poses and lights. PNG goes
+through the scene's colour management as above; EXR holds linear values.
+Profiles: {profiles}.
 """
 
 
@@ -46,7 +60,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser(
         "render",
         help="render a .blend or the demo scene headless (the engine's own F12)",
-        description=DESCRIPTION,
+        description=DESCRIPTION.format(profiles=", ".join(PROFILES)),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     source = p.add_mutually_exclusive_group(required=True)
@@ -89,6 +103,23 @@ def add_parser(sub) -> None:
         help="OpenCL device index as `doctor` lists them, set as the add-on preference "
         "(Preferences > Add-ons > BTF Materials > OpenCL Device) for this render; default: "
         "that preference (Automatic: best GPU, else CPU)",
+    )
+    p.add_argument(
+        "--stereo",
+        choices=sorted(PROFILES),
+        metavar="PROFILE",
+        help="a stereo capture with this headset profile instead of F12 (see above)",
+    )
+    p.add_argument(
+        "--layout",
+        choices=LAYOUTS,
+        help="stereo output: side-by-side (default) or per-eye",
+    )
+    p.add_argument(
+        "--eye-width",
+        type=int,
+        metavar="N",
+        help="stereo: N pixels per eye, the profile's aspect kept (default: its own size)",
     )
     p.add_argument("--engine", type=_removed_engine, help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_render)
@@ -152,6 +183,7 @@ def cmd_render(args) -> int:
         raise BTFError(f"{args.output}: output must end in .png or .exr")
     if args.blend is not None and not args.blend.is_file():
         raise BTFError(f"{args.blend}: no such .blend file")
+    _check_stereo_flags(args)
     try:
         import bpy
     except ImportError:
@@ -165,6 +197,8 @@ def cmd_render(args) -> int:
         else:
             bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
             scene = bpy.context.scene
+        if args.stereo:
+            return _render_stereo(bpy, scene, args)
         settings = prepare_scene(scene, args)
         output = args.output.resolve()
         before = output.stat().st_mtime_ns if output.is_file() else None
@@ -180,6 +214,66 @@ def cmd_render(args) -> int:
     if not output.is_file() or output.stat().st_mtime_ns == before:
         raise BTFError(f"the render wrote no image to {output}")
     print(f"rendered {w}x{h} with {describe(settings)} in {seconds:.2f} s -> {args.output}")
+    return 0
+
+
+#: F12-only flags, refused with --stereo (the eyes are drawn by the viewport's drawer).
+F12_ONLY = {
+    "resolution": "--resolution (use --eye-width)",
+    "final_mode": "--final-mode",
+    "samples": "--samples",
+    "bounces": "--bounces",
+    "device": "--device",
+}
+
+
+def _check_stereo_flags(args) -> None:
+    """Before Blender starts: flags that do not fit the stereo capture, and its sizes."""
+    stereo_only = [
+        flag
+        for flag, value in (("--layout", args.layout), ("--eye-width", args.eye_width))
+        if value is not None
+    ]
+    if args.stereo is None:
+        if stereo_only:
+            raise BTFError(f"{', '.join(stereo_only)} needs --stereo PROFILE")
+        return
+    given = [flag for name, flag in F12_ONLY.items() if getattr(args, name) is not None]
+    if given:
+        raise BTFError(
+            f"{', '.join(given)}: F12 only; a stereo capture is drawn with the viewport's "
+            "virtual lights at the profile's (or --eye-width's) size"
+        )
+    capture_profile(profile(args.stereo), args.eye_width)  # sizes refused up front
+    args.layout = args.layout or LAYOUTS[0]
+
+
+def _render_stereo(bpy, scene, args) -> int:
+    """The stereo capture of ``scene`` (blender/stereo_capture.py, the operator's own path)."""
+    from ..blender.stereo_capture import capture_scene
+    from ..gl.stereo_capture import describe as describe_capture
+
+    if scene.camera is None:
+        raise BTFError(f"the scene {scene.name!r} has no camera to capture from")
+    given = overrides(args)
+    _check_ranges(scene.btf_render, given)
+    settings = RenderSettings.from_properties(scene.btf_render).with_overrides(**given)
+    t0 = time.perf_counter()
+    capture, written = capture_scene(
+        bpy.context.evaluated_depsgraph_get(),
+        args.output.resolve(),
+        args.stereo,
+        args.layout,
+        args.eye_width,
+        settings,
+    )
+    seconds = time.perf_counter() - t0
+    for message in capture.messages:
+        print(f"warning: {message}", file=sys.stderr)
+    print(
+        f"captured {describe_capture(capture)} with {describe(settings)} in {seconds:.2f} s "
+        f"-> {', '.join(str(p) for p in written)}"
+    )
     return 0
 
 
