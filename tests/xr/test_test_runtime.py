@@ -342,6 +342,7 @@ def test_two_frames_reach_focused_and_read_back_as_cleared_with_the_scripted_pos
     for f, frame in enumerate(frames):
         assert frame.display_time == states[f].predicted_display_time
         assert frame.space == "LOCAL"
+        np.testing.assert_allclose(frame.head, heads[f], atol=1e-6)
         assert len(frame.views) == 2
         head_pos, head_q = np.array(heads[f][:3]), heads[f][3:]
         for i, view in enumerate(frame.views):
@@ -490,11 +491,21 @@ def test_an_extension_not_offered_is_refused(xr_runtime, app_factory, capfd):
         app.start()
 
 
-def test_a_bad_script_fails_instance_creation_saying_why(xr_runtime, app_factory, capfd):
-    xr_runtime.script(eye_size=[64])
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        ({"eye_size": [64]}, "eye_size must be [width, height]"),
+        ({"eye_sise": [64, 48]}, 'unknown key "eye_sise"'),
+        ({"head": [[0, 0, 0, 0, 0, 0, 0]]}, "head[0] has a zero quaternion"),
+    ],
+)
+def test_a_bad_script_fails_instance_creation_saying_why(
+    xr_runtime, app_factory, capfd, overrides, message
+):
+    xr_runtime.script(**overrides)
     with pytest.raises(xr.RuntimeFailureError):
         app_factory()
-    assert "eye_size must be [width, height]" in capfd.readouterr().err
+    assert message in capfd.readouterr().err
 
 
 def test_another_view_count(xr_runtime, app_factory):
@@ -642,3 +653,44 @@ def test_readback_decodes_srgb_exactly_as_gl_samples_it():
         [0.0, 0.04045 / 12.92, 0.214041, 1.0],
         atol=1e-6,
     )
+
+
+def test_quad_layers_are_accepted_beside_the_projection_and_not_captured(xr_runtime, app_factory):
+    app = app_factory()
+    space, chains = start_running(app, size=(32, 24), formats=(GL_RGBA8, GL_RGBA8))
+    hud, _ = app.swapchain(GL_RGBA8, 16, 8)
+    colours = [((0.5, 0.5, 0.5, 1.0), (0.0, 0.0, 0.0, 1.0))] * 2
+    submit_frame(app, space, chains, colours)  # releases an image of each eye swapchain
+    quad = xr.CompositionLayerQuad(
+        space=space,
+        pose=xr.Posef(position=xr.Vector3f(0, 0, -1)),
+        size=xr.Extent2Df(0.5, 0.25),
+        sub_image=xr.SwapchainSubImage(
+            swapchain=hud, image_rect=xr.Rect2Di(extent=xr.Extent2Di(16, 8))
+        ),
+    )
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    end = xr.FrameEndInfo(display_time=state.predicted_display_time, layers=[ctypes.byref(quad)])
+    with pytest.raises(xr.LayerInvalidError):  # the HUD swapchain was never released
+        xr.end_frame(app.session, end)
+    xr.acquire_swapchain_image(hud, xr.SwapchainImageAcquireInfo())
+    xr.wait_swapchain_image(hud, xr.SwapchainImageWaitInfo(timeout=0))
+    xr.release_swapchain_image(hud, xr.SwapchainImageReleaseInfo())
+    xr.end_frame(app.session, end)
+    assert len(xr_runtime.captured()) == 1  # only the frame with a projection layer
+
+
+def test_pace_blocks_wait_frame_to_the_display_period(xr_runtime, app_factory):
+    period = 0.03
+    xr_runtime.script(pace=True, display_period_s=period)
+    app = app_factory()
+    start_running(app, formats=())
+    start = time.monotonic()
+    for _ in range(4):
+        state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=state.predicted_display_time))
+    # frame k's slot opens at t0 + k * period: 4 frames span at least 3 periods (a lower bound
+    # only: a loaded machine may take longer, never shorter)
+    assert time.monotonic() - start >= 3 * period

@@ -212,6 +212,8 @@ static XrResult XRAPI_CALL rt_CreateInstance(const XrInstanceCreateInfo *info, X
 static XrResult XRAPI_CALL rt_DestroyInstance(XrInstance instance) {
     GET_INSTANCE(inst, instance, "xrDestroyInstance");
     if (inst->session) rt_session_free(inst->session);
+    rt_simple *set; /* action sets (and their actions) are the instance's children */
+    while ((set = rt_handle_find_child(RT_ACTION_SET, inst))) rt_action_set_free(set);
     for (int i = 0; i < inst->path_count; i++) free(inst->paths[i]);
     free(inst->paths);
     rt_config_free(&inst->cfg);

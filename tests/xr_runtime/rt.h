@@ -46,6 +46,7 @@ typedef struct rt_config {
     int system_available;
     long lose_after_frames;  /* -1: never */
     int render_from_visible; /* shouldRender only from VISIBLE (Monado); default: SYNCHRONIZED */
+    int pace;                /* xrWaitFrame sleeps until its frame's slot (real time) */
     char capture_dir[4096];  /* "" = no capture */
 } rt_config;
 
@@ -145,6 +146,7 @@ void rt_handle_add(void *obj);
 void rt_handle_remove(void *obj);
 /* the first live object of a kind whose owner (the field after kind) is owner, or NULL */
 rt_simple *rt_handle_find_child(rt_kind kind, const void *owner);
+void rt_action_set_free(rt_simple *set);
 
 /* logging: every refused call says why on stderr */
 XrResult rt_refuse(XrResult result, const char *func, const char *fmt, ...)
@@ -166,6 +168,7 @@ int rt_gl_load(rt_gl *gl, const XrGraphicsBindingEGLMNDX *binding);
 int rt_gl_begin(rt_gl *gl);
 void rt_gl_end(rt_gl *gl);
 void rt_swapchain_free(rt_swapchain *sc);
+XrResult rt_check_quad(rt_session *s, const XrCompositionLayerQuad *quad);
 /* display_time 0: validate the layer only; else also read back and write the capture */
 XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *layer,
                           XrTime display_time);

@@ -32,15 +32,22 @@ static XrResult XRAPI_CALL rt_CreateAction(XrActionSet set, const XrActionCreate
     return XR_SUCCESS;
 }
 
+void rt_action_set_free(rt_simple *set) {
+    rt_simple *child; /* its actions go with it */
+    while ((child = rt_handle_find_child(RT_ACTION, set))) {
+        rt_handle_remove(child);
+        free(child);
+    }
+    rt_handle_remove(set);
+    free(set);
+}
+
 static XrResult destroy(const void *handle, rt_kind kind, const char *F) {
     rt_simple *o = rt_handle_get(handle, kind);
     if (!o) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live handle");
-    if (kind == RT_ACTION_SET) { /* its actions go with it */
-        rt_simple *child;
-        while ((child = rt_handle_find_child(RT_ACTION, o))) {
-            rt_handle_remove(child);
-            free(child);
-        }
+    if (kind == RT_ACTION_SET) {
+        rt_action_set_free(o);
+        return XR_SUCCESS;
     }
     rt_handle_remove(o);
     free(o);

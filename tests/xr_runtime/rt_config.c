@@ -187,6 +187,15 @@ int rt_config_load(rt_config *cfg) {
     jparser ps = {text, NULL};
     if (jparse(&ps, &root)) BAD("is not JSON (%s near byte %ld)", ps.err, (long)(ps.p - text));
     if (root.t != J_OBJ) BAD("is not a JSON object");
+    static const char *const KNOWN[] = {
+        "views", "eye_size", "ipd", "fov", "display_period_s", "head", "formats", "extensions",
+        "system_available", "lose_session_after_frames", "should_render_from", "pace", "capture_dir",
+    };
+    for (int i = 0; i < root.n; i++) {
+        int ok = 0;
+        for (size_t k = 0; k < sizeof KNOWN / sizeof *KNOWN; k++) ok |= !strcmp(root.keys[i], KNOWN[k]);
+        if (!ok) BAD("unknown key \"%s\" (controller actions are not scripted yet)", root.keys[i]);
+    }
     const jval *v;
     double d[7];
     if ((v = jget(&root, "views")) && v->t != J_NULL) {
@@ -266,6 +275,10 @@ int rt_config_load(rt_config *cfg) {
         if (v->t != J_STR || (strcmp(v->str, "synchronized") && strcmp(v->str, "visible")))
             BAD("should_render_from must be \"synchronized\" or \"visible\"");
         cfg->render_from_visible = !strcmp(v->str, "visible");
+    }
+    if ((v = jget(&root, "pace")) && v->t != J_NULL) {
+        if (v->t != J_BOOL) BAD("pace must be true or false");
+        cfg->pace = v->num != 0;
     }
     if ((v = jget(&root, "capture_dir")) && v->t != J_NULL) {
         if (v->t != J_STR || v->str[0] != '/' || strlen(v->str) >= sizeof cfg->capture_dir)

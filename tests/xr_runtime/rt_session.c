@@ -3,6 +3,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "rt.h"
 
@@ -86,7 +87,7 @@ void rt_set_state(rt_session *s, XrSessionState state) {
     rt_instance *inst = s->instance;
     s->state = state;
     if (inst->event_count == RT_EVENT_QUEUE) {
-        /* full: drop the oldest and tell the app (XrEventDataEventsLost) on the next poll */
+        /* full (an app that never polls): drop the oldest */
         inst->event_head = (inst->event_head + 1) % RT_EVENT_QUEUE;
         inst->event_count--;
     }
@@ -301,6 +302,13 @@ static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo
     int64_t period = (int64_t)(cfg->period_s * 1e9);
     long k = s->waited++;
     s->waits_unbegun++;
+    if (cfg->pace) { /* block until this frame's slot opens, one period before its display */
+        int64_t wait_ns = s->t0 + k * period - rt_now_ns();
+        if (wait_ns > 0) {
+            struct timespec ts = {wait_ns / 1000000000, wait_ns % 1000000000};
+            nanosleep(&ts, NULL);
+        }
+    }
     state->predictedDisplayTime = s->t0 + (k + 1) * period;
     state->predictedDisplayPeriod = period;
     int visible = s->state == XR_SESSION_STATE_VISIBLE || s->state == XR_SESSION_STATE_FOCUSED;
@@ -349,8 +357,13 @@ static XrResult XRAPI_CALL rt_EndFrame(XrSession session, const XrFrameEndInfo *
     for (uint32_t i = 0; i < info->layerCount; i++) {
         const XrCompositionLayerBaseHeader *l = info->layers[i];
         if (!l) return rt_refuse(XR_ERROR_LAYER_INVALID, F, "layers[%u] is NULL", i);
+        if (l->type == XR_TYPE_COMPOSITION_LAYER_QUAD) { /* validated, composited, not captured */
+            XrResult r = rt_check_quad(s, (const XrCompositionLayerQuad *)l);
+            if (XR_FAILED(r)) return r;
+            continue;
+        }
         if (l->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION)
-            return rt_refuse(XR_ERROR_LAYER_INVALID, F, "layers[%u] has type %d; this runtime composites projection layers only", i, (int)l->type);
+            return rt_refuse(XR_ERROR_LAYER_INVALID, F, "layers[%u] has type %d; this runtime composites projection and quad layers only", i, (int)l->type);
         XrResult r = rt_capture_frame(s, (const XrCompositionLayerProjection *)l, 0); /* validation only */
         if (XR_FAILED(r)) return r;
         if (!projection) projection = (const XrCompositionLayerProjection *)l;

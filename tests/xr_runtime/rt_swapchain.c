@@ -313,10 +313,36 @@ static void write_fov(FILE *f, const XrFovf *v) {
     fprintf(f, "[%.9g, %.9g, %.9g, %.9g]", v->angleLeft, v->angleRight, v->angleUp, v->angleDown);
 }
 
+
 static int pose_ok(const XrPosef *p) {
     const XrQuaternionf *q = &p->orientation;
     float n = q->x * q->x + q->y * q->y + q->z * q->z + q->w * q->w;
     return fabsf(n - 1.0f) < 1e-3f; /* unit quaternions, with float rounding allowed */
+}
+
+/* a sub-image must name a live swapchain of this session that has a released image, and lie
+ * inside it */
+static XrResult check_sub_image(rt_session *s, const XrSwapchainSubImage *sub, const char *what) {
+    const char *F = "xrEndFrame";
+    rt_swapchain *sc = rt_handle_get(sub->swapchain, RT_SWAPCHAIN);
+    if (!sc || sc->session != s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "%s.swapchain is not a live XrSwapchain of this session", what);
+    if (sc->last_released < 0) return rt_refuse(XR_ERROR_LAYER_INVALID, F, "%s's swapchain has no released image", what);
+    const XrRect2Di *r = &sub->imageRect;
+    if (r->offset.x < 0 || r->offset.y < 0 || r->extent.width <= 0 || r->extent.height <= 0 ||
+        (uint32_t)(r->offset.x + r->extent.width) > sc->width || (uint32_t)(r->offset.y + r->extent.height) > sc->height)
+        return rt_refuse(XR_ERROR_SWAPCHAIN_RECT_INVALID, F, "%s.imageRect (%d, %d, %d, %d) is outside the %ux%u swapchain",
+                         what, r->offset.x, r->offset.y, r->extent.width, r->extent.height, sc->width, sc->height);
+    if (sub->imageArrayIndex != 0)
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "%s.imageArrayIndex %u >= arraySize 1", what, sub->imageArrayIndex);
+    return XR_SUCCESS;
+}
+
+XrResult rt_check_quad(rt_session *s, const XrCompositionLayerQuad *quad) {
+    rt_space *space = rt_handle_get(quad->space, RT_SPACE);
+    if (!space || space->session != s)
+        return rt_refuse(XR_ERROR_HANDLE_INVALID, "xrEndFrame", "a quad layer's space is not a live XrSpace of this session");
+    if (!pose_ok(&quad->pose)) return rt_refuse(XR_ERROR_POSE_INVALID, "xrEndFrame", "a quad layer's pose is not a unit quaternion");
+    return check_sub_image(s, &quad->subImage, "a quad layer's subImage");
 }
 
 XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *layer, XrTime t) {
@@ -333,17 +359,10 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
         if (v->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW)
             return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "views[%d].type is not XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW", i);
         if (!pose_ok(&v->pose)) return rt_refuse(XR_ERROR_POSE_INVALID, F, "views[%d].pose's orientation is not a unit quaternion", i);
-        rt_swapchain *sc = rt_handle_get(v->subImage.swapchain, RT_SWAPCHAIN);
-        if (!sc || sc->session != s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "views[%d].subImage.swapchain is not a live XrSwapchain of this session", i);
-        if (sc->last_released < 0)
-            return rt_refuse(XR_ERROR_LAYER_INVALID, F, "views[%d]'s swapchain has no released image", i);
-        const XrRect2Di *r = &v->subImage.imageRect;
-        if (r->offset.x < 0 || r->offset.y < 0 || r->extent.width <= 0 || r->extent.height <= 0 ||
-            (uint32_t)(r->offset.x + r->extent.width) > sc->width || (uint32_t)(r->offset.y + r->extent.height) > sc->height)
-            return rt_refuse(XR_ERROR_SWAPCHAIN_RECT_INVALID, F, "views[%d].subImage.imageRect (%d, %d, %d, %d) is outside the %ux%u swapchain",
-                             i, r->offset.x, r->offset.y, r->extent.width, r->extent.height, sc->width, sc->height);
-        if (v->subImage.imageArrayIndex != 0)
-            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "views[%d].subImage.imageArrayIndex %u >= arraySize 1", i, v->subImage.imageArrayIndex);
+        char what[48];
+        snprintf(what, sizeof what, "views[%d].subImage", i);
+        XrResult r = check_sub_image(s, &v->subImage, what);
+        if (XR_FAILED(r)) return r;
     }
     if (!t || !cfg->capture_dir[0]) return XR_SUCCESS;
 
@@ -365,7 +384,9 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
         rt_gl_end(gl);
         return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "cannot write %s", tmp);
     }
-    fprintf(js, "{\"frame\": %ld, \"display_time\": %lld, \"space\": \"%s\", \"views\": [", n, (long long)t, space_name(space));
+    fprintf(js, "{\"frame\": %ld, \"display_time\": %lld, \"space\": \"%s\", \"head\": ", n, (long long)t, space_name(space));
+    write_pose(js, &head); /* the script's head pose at display_time, in world (= LOCAL) space */
+    fprintf(js, ", \"views\": [");
     for (int i = 0; i < cfg->views; i++) {
         const XrCompositionLayerProjectionView *v = &layer->views[i];
         rt_swapchain *sc = rt_handle_get(v->subImage.swapchain, RT_SWAPCHAIN);
