@@ -262,6 +262,16 @@ def test_runtime_builds_from_a_clean_dir_and_only_rebuilds_when_a_source_changes
     assert library.stat().st_mtime_ns > 1
 
 
+def test_changed_compiler_flags_rebuild(tmp_path, monkeypatch):
+    library = build_runtime(tmp_path).parent / LIBRARY_NAME
+    os.utime(library, ns=(2**62, 2**62))  # newer than any source: up to date by time
+    build_runtime(tmp_path)
+    assert library.stat().st_mtime_ns == 2**62  # same flags: kept
+    monkeypatch.setenv("BTF_XR_RUNTIME_CFLAGS", "-DBTF_TEST_FLAG=1")
+    build_runtime(tmp_path)
+    assert library.stat().st_mtime_ns < 2**62  # new flags: rebuilt
+
+
 def test_a_missing_compiler_or_header_is_named_with_its_apt_package(tmp_path, monkeypatch):
     assert missing_tools() == []  # this machine has them (tools/check_system.sh)
     headers = missing_tools(include_dir=tmp_path)
