@@ -704,3 +704,73 @@ def test_pace_blocks_wait_frame_to_the_display_period(xr_runtime, app_factory):
     # frame k's slot opens at t0 + k * period: 4 frames span at least 3 periods (a lower bound
     # only: a loaded machine may take longer, never shorter)
     assert time.monotonic() - start >= 3 * period
+
+
+def test_end_frame_reads_the_app_context_while_another_is_current(xr_runtime, app_factory):
+    """The capture binds the session's context for its readback and gives the thread back the
+    context that was current (here a second one), as XR_KHR_opengl_enable requires."""
+    from xr_runtime.egl import create_egl_context
+
+    app = app_factory()
+    space, chains = start_running(app, size=(16, 8), formats=(GL_RGBA8, GL_RGBA8))
+    colours = [((0.0, 0.5, 1.0, 1.0), (1.0, 0.5, 0.0, 1.0))] * 2
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    proj = []
+    for sc, images, size in chains:
+        index = xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
+        xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=0))
+        app.clear_image(images[index], size, *colours[0])
+        xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+        rect = xr.Rect2Di(extent=xr.Extent2Di(*size))
+        proj.append(
+            xr.CompositionLayerProjectionView(
+                pose=xr.Posef(),
+                fov=xr.Fovf(-0.5, 0.5, 0.5, -0.5),
+                sub_image=xr.SwapchainSubImage(swapchain=sc, image_rect=rect),
+            )
+        )
+    other = create_egl_context()  # now current instead of the app's
+    try:
+        layer = xr.CompositionLayerProjection(space=space, views=proj)
+        xr.end_frame(
+            app.session,
+            xr.FrameEndInfo(
+                display_time=state.predicted_display_time, layers=[ctypes.byref(layer)]
+            ),
+        )
+        assert other.lib.eglGetCurrentContext() == other.context
+    finally:
+        other.destroy()
+        app.egl.make_current()
+    view = xr_runtime.captured()[0].views[0]
+    # RGBA8 quantisation: half a step, 0.5/255
+    np.testing.assert_allclose(view.image[-1, -1], colours[0][0], atol=0.5 / 255 + 1e-6)
+    np.testing.assert_allclose(view.image[0, 0], colours[0][1], atol=0.5 / 255 + 1e-6)
+
+
+def test_the_view_space_follows_the_head(xr_runtime, app_factory):
+    head = [0.3, 1.7, -0.5, 0.0, 0.0, float(np.sin(0.2)), float(np.cos(0.2))]
+    xr_runtime.script(head=[head])
+    app = app_factory()
+    local, _ = start_running(app, formats=())
+    view = app.space(xr.ReferenceSpaceType.VIEW)
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    loc = xr.locate_space(view, local, state.predicted_display_time)
+    assert loc.location_flags & xr.SpaceLocationFlags.POSITION_TRACKED_BIT
+    got = [*(getattr(loc.pose.position, a) for a in "xyz")]
+    got += [getattr(loc.pose.orientation, a) for a in "xyzw"]
+    np.testing.assert_allclose(got, head, atol=1e-6)  # float32 poses
+    # eyes located in VIEW space sit at -/+ ipd/2 on x, unrotated
+    _, views = xr.locate_views(
+        app.session,
+        xr.ViewLocateInfo(
+            view_configuration_type=STEREO, display_time=state.predicted_display_time, space=view
+        ),
+    )
+    for i, v in enumerate(views):
+        np.testing.assert_allclose(
+            [v.pose.position.x, v.pose.position.y, v.pose.position.z],
+            [(-0.0315, 0.0315)[i], 0.0, 0.0],
+            atol=1e-6,
+        )
