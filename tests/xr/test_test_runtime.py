@@ -774,3 +774,25 @@ def test_the_view_space_follows_the_head(xr_runtime, app_factory):
             [(-0.0315, 0.0315)[i], 0.0, 0.0],
             atol=1e-6,
         )
+
+
+def test_wait_frame_may_run_on_another_thread(xr_runtime, app_factory):
+    """The pipelined pattern the spec allows: xrWaitFrame on one thread, begin/end on another."""
+    import threading
+
+    xr_runtime.script(pace=True, display_period_s=0.01)
+    app = app_factory()
+    start_running(app, formats=())
+    times = []
+    for _ in range(3):
+        states = []
+        waiter = threading.Thread(
+            target=lambda out=states: out.append(xr.wait_frame(app.session, xr.FrameWaitInfo()))
+        )
+        waiter.start()
+        app.poll()  # concurrently with the (pacing) wait
+        waiter.join(timeout=10)
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=states[0].predicted_display_time))
+        times.append(states[0].predicted_display_time)
+    assert np.diff(times).tolist() == [10_000_000, 10_000_000]

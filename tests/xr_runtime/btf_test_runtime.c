@@ -1,6 +1,7 @@
 /* The BTF test OpenXR runtime: loader negotiation, dispatch, instance, system, view
  * configurations, paths and strings. Sessions and frames: rt_session.c; OpenGL swapchains and the
  * capture: rt_swapchain.c; actions: rt_actions.c; the control script: rt_config.c. */
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,7 +46,27 @@ typedef struct XrNegotiateRuntimeRequest {
     PFN_xrGetInstanceProcAddr getInstanceProcAddr;
 } XrNegotiateRuntimeRequest;
 
-/* ---- logging, time, handles ---- */
+/* ---- the lock, logging, time, handles ---- */
+static pthread_mutex_t lock;
+static pthread_once_t lock_once = PTHREAD_ONCE_INIT;
+
+static void lock_init(void) {
+    pthread_mutexattr_t attr;
+    pthread_mutexattr_init(&attr);
+    pthread_mutexattr_settype(&attr, PTHREAD_MUTEX_RECURSIVE);
+    pthread_mutex_init(&lock, &attr);
+}
+
+int rt_lock_acquire(void) {
+    pthread_once(&lock_once, lock_init);
+    pthread_mutex_lock(&lock);
+    return 0;
+}
+
+void rt_lock_release(int *unused) {
+    (void)unused;
+    pthread_mutex_unlock(&lock);
+}
 const char *rt_result_name(XrResult r) {
     switch (r) {
 #define RT_CASE(name, value) case name: return #name;
@@ -136,6 +157,7 @@ static int known_extension(const char *name) {
 /* ---- instance ---- */
 static XrResult XRAPI_CALL rt_EnumerateInstanceExtensionProperties(
     const char *layerName, uint32_t capacity, uint32_t *countOutput, XrExtensionProperties *props) {
+    RT_LOCKED;
     const char *F = "xrEnumerateInstanceExtensionProperties";
     if (layerName && *layerName)
         return rt_refuse(XR_ERROR_API_LAYER_NOT_PRESENT, F, "this runtime has no layer %s", layerName);
@@ -166,6 +188,7 @@ static XrResult XRAPI_CALL rt_EnumerateInstanceExtensionProperties(
 
 static XrResult XRAPI_CALL rt_EnumerateApiLayerProperties(uint32_t capacity, uint32_t *countOutput,
                                                           XrApiLayerProperties *props) {
+    RT_LOCKED;
     (void)props;
     if (!countOutput) return XR_ERROR_VALIDATION_FAILURE;
     *countOutput = 0; /* no layers: the loader answers this itself anyway */
@@ -174,6 +197,7 @@ static XrResult XRAPI_CALL rt_EnumerateApiLayerProperties(uint32_t capacity, uin
 }
 
 static XrResult XRAPI_CALL rt_CreateInstance(const XrInstanceCreateInfo *info, XrInstance *out) {
+    RT_LOCKED;
     const char *F = "xrCreateInstance";
     RT_CHECK_TYPE(info, XR_TYPE_INSTANCE_CREATE_INFO, F);
     if (!out) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "instance output is NULL");
@@ -210,6 +234,7 @@ static XrResult XRAPI_CALL rt_CreateInstance(const XrInstanceCreateInfo *info, X
 }
 
 static XrResult XRAPI_CALL rt_DestroyInstance(XrInstance instance) {
+    RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrDestroyInstance");
     if (inst->session) rt_session_free(inst->session);
     rt_simple *set; /* action sets (and their actions) are the instance's children */
@@ -223,6 +248,7 @@ static XrResult XRAPI_CALL rt_DestroyInstance(XrInstance instance) {
 }
 
 static XrResult XRAPI_CALL rt_GetInstanceProperties(XrInstance instance, XrInstanceProperties *p) {
+    RT_LOCKED;
     const char *F = "xrGetInstanceProperties";
     GET_INSTANCE(inst, instance, F);
     RT_CHECK_TYPE(p, XR_TYPE_INSTANCE_PROPERTIES, F);
@@ -233,6 +259,7 @@ static XrResult XRAPI_CALL rt_GetInstanceProperties(XrInstance instance, XrInsta
 
 static XrResult XRAPI_CALL rt_ResultToString(XrInstance instance, XrResult value,
                                              char buffer[XR_MAX_RESULT_STRING_SIZE]) {
+    RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrResultToString");
     const char *name = rt_result_name(value);
     if (!strcmp(name, "XR_UNKNOWN_RESULT"))
@@ -244,6 +271,7 @@ static XrResult XRAPI_CALL rt_ResultToString(XrInstance instance, XrResult value
 
 static XrResult XRAPI_CALL rt_StructureTypeToString(XrInstance instance, XrStructureType value,
                                                     char buffer[XR_MAX_STRUCTURE_NAME_SIZE]) {
+    RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrStructureTypeToString");
     const char *name = NULL;
     switch (value) {
@@ -258,6 +286,7 @@ static XrResult XRAPI_CALL rt_StructureTypeToString(XrInstance instance, XrStruc
 }
 
 static XrResult XRAPI_CALL rt_PollEvent(XrInstance instance, XrEventDataBuffer *event) {
+    RT_LOCKED;
     const char *F = "xrPollEvent";
     GET_INSTANCE(inst, instance, F);
     RT_CHECK_TYPE(event, XR_TYPE_EVENT_DATA_BUFFER, F);
@@ -277,6 +306,7 @@ static XrResult XRAPI_CALL rt_PollEvent(XrInstance instance, XrEventDataBuffer *
     } while (0)
 
 static XrResult XRAPI_CALL rt_GetSystem(XrInstance instance, const XrSystemGetInfo *info, XrSystemId *id) {
+    RT_LOCKED;
     const char *F = "xrGetSystem";
     GET_INSTANCE(inst, instance, F);
     RT_CHECK_TYPE(info, XR_TYPE_SYSTEM_GET_INFO, F);
@@ -293,6 +323,7 @@ static XrResult XRAPI_CALL rt_GetSystem(XrInstance instance, const XrSystemGetIn
 }
 
 static XrResult XRAPI_CALL rt_GetSystemProperties(XrInstance instance, XrSystemId id, XrSystemProperties *p) {
+    RT_LOCKED;
     const char *F = "xrGetSystemProperties";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -310,6 +341,7 @@ static XrResult XRAPI_CALL rt_GetSystemProperties(XrInstance instance, XrSystemI
 
 static XrResult XRAPI_CALL rt_EnumerateViewConfigurations(XrInstance instance, XrSystemId id, uint32_t capacity,
                                                          uint32_t *countOutput, XrViewConfigurationType *types) {
+    RT_LOCKED;
     const char *F = "xrEnumerateViewConfigurations";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -328,6 +360,7 @@ static XrResult XRAPI_CALL rt_EnumerateViewConfigurations(XrInstance instance, X
 static XrResult XRAPI_CALL rt_GetViewConfigurationProperties(XrInstance instance, XrSystemId id,
                                                             XrViewConfigurationType type,
                                                             XrViewConfigurationProperties *p) {
+    RT_LOCKED;
     const char *F = "xrGetViewConfigurationProperties";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -341,6 +374,7 @@ static XrResult XRAPI_CALL rt_GetViewConfigurationProperties(XrInstance instance
 static XrResult XRAPI_CALL rt_EnumerateViewConfigurationViews(XrInstance instance, XrSystemId id,
                                                              XrViewConfigurationType type, uint32_t capacity,
                                                              uint32_t *countOutput, XrViewConfigurationView *views) {
+    RT_LOCKED;
     const char *F = "xrEnumerateViewConfigurationViews";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -361,6 +395,7 @@ static XrResult XRAPI_CALL rt_EnumerateViewConfigurationViews(XrInstance instanc
 static XrResult XRAPI_CALL rt_EnumerateEnvironmentBlendModes(XrInstance instance, XrSystemId id,
                                                             XrViewConfigurationType type, uint32_t capacity,
                                                             uint32_t *countOutput, XrEnvironmentBlendMode *modes) {
+    RT_LOCKED;
     const char *F = "xrEnumerateEnvironmentBlendModes";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -372,6 +407,7 @@ static XrResult XRAPI_CALL rt_EnumerateEnvironmentBlendModes(XrInstance instance
 
 static XrResult XRAPI_CALL rt_GetOpenGLGraphicsRequirementsKHR(XrInstance instance, XrSystemId id,
                                                               XrGraphicsRequirementsOpenGLKHR *req) {
+    RT_LOCKED;
     const char *F = "xrGetOpenGLGraphicsRequirementsKHR";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -397,6 +433,7 @@ static int path_format_ok(const char *s) {
 }
 
 static XrResult XRAPI_CALL rt_StringToPath(XrInstance instance, const char *str, XrPath *path) {
+    RT_LOCKED;
     const char *F = "xrStringToPath";
     GET_INSTANCE(inst, instance, F);
     if (!str || !path) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "NULL argument");
@@ -417,6 +454,7 @@ static XrResult XRAPI_CALL rt_StringToPath(XrInstance instance, const char *str,
 
 static XrResult XRAPI_CALL rt_PathToString(XrInstance instance, XrPath path, uint32_t capacity,
                                            uint32_t *countOutput, char *buffer) {
+    RT_LOCKED;
     const char *F = "xrPathToString";
     GET_INSTANCE(inst, instance, F);
     if (path == XR_NULL_PATH || path > (XrPath)inst->path_count)
@@ -451,6 +489,7 @@ static const rt_entry instance_entries[] = {
 
 static XrResult XRAPI_CALL rt_GetInstanceProcAddr(XrInstance instance, const char *name,
                                                   PFN_xrVoidFunction *function) {
+    RT_LOCKED;
     const char *F = "xrGetInstanceProcAddr";
     if (!name || !function) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "NULL argument");
     *function = NULL;

@@ -26,7 +26,7 @@ HEADERS = {
     "EGL/egl.h": "libegl-dev",
     "GL/gl.h": "libgl-dev",
 }
-CFLAGS = ["-std=gnu11", "-shared", "-fPIC", "-O1", "-g", "-Wall", "-Wextra", "-Werror"]
+CFLAGS = ["-std=gnu11", "-shared", "-fPIC", "-pthread", "-O1", "-g", "-Wall", "-Wextra", "-Werror"]
 # only xrNegotiateLoaderRuntimeInterface is exported: everything else goes through the loader
 CFLAGS += ["-fvisibility=hidden"]
 

@@ -3,7 +3,7 @@
  * A test double at a hardware boundary: a small OpenXR 1.0 runtime that the REAL OpenXR loader
  * loads through XR_RUNTIME_JSON. It follows the OpenXR specification (not any client's code) for
  * the subset a GL application needs; see docs/development.md "The OpenXR test runtime".
- * Not thread-safe: calls must be serialised by the app (tests drive it from one thread).
+ * One recursive lock serialises every entry point (apps may call xrWaitFrame from another thread).
  */
 #ifndef BTF_TEST_RUNTIME_RT_H
 #define BTF_TEST_RUNTIME_RT_H
@@ -179,6 +179,12 @@ enum { RT_NEEDS_NONE = 0, RT_NEEDS_OPENGL = 1, RT_NEEDS_EGL = 2 };
 extern const rt_entry rt_session_entries[];
 extern const rt_entry rt_swapchain_entries[];
 extern const rt_entry rt_action_entries[];
+
+/* RT_LOCKED; as an entry point's first statement holds the runtime's lock until it returns */
+int rt_lock_acquire(void);
+void rt_lock_release(int *unused);
+#define RT_LOCKED __attribute__((cleanup(rt_lock_release))) int rt_lock_guard_ = rt_lock_acquire(); \
+    (void)rt_lock_guard_
 
 #define RT_CHECK_TYPE(ptr, expected, func)                                                     \
     do {                                                                                       \

@@ -6,6 +6,7 @@
 #include "rt.h"
 
 static XrResult XRAPI_CALL rt_CreateActionSet(XrInstance instance, const XrActionSetCreateInfo *info, XrActionSet *out) {
+    RT_LOCKED;
     const char *F = "xrCreateActionSet";
     if (!rt_handle_get(instance, RT_INSTANCE)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrInstance");
     RT_CHECK_TYPE(info, XR_TYPE_ACTION_SET_CREATE_INFO, F);
@@ -20,6 +21,7 @@ static XrResult XRAPI_CALL rt_CreateActionSet(XrInstance instance, const XrActio
 }
 
 static XrResult XRAPI_CALL rt_CreateAction(XrActionSet set, const XrActionCreateInfo *info, XrAction *out) {
+    RT_LOCKED;
     const char *F = "xrCreateAction";
     if (!rt_handle_get(set, RT_ACTION_SET)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrActionSet");
     RT_CHECK_TYPE(info, XR_TYPE_ACTION_CREATE_INFO, F);
@@ -43,6 +45,7 @@ void rt_action_set_free(rt_simple *set) {
 }
 
 static XrResult destroy(const void *handle, rt_kind kind, const char *F) {
+    RT_LOCKED;
     rt_simple *o = rt_handle_get(handle, kind);
     if (!o) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live handle");
     if (kind == RT_ACTION_SET) {
@@ -59,6 +62,7 @@ static XrResult XRAPI_CALL rt_DestroyAction(XrAction action) { return destroy(ac
 
 static XrResult XRAPI_CALL rt_SuggestInteractionProfileBindings(XrInstance instance,
                                                                const XrInteractionProfileSuggestedBinding *b) {
+    RT_LOCKED;
     const char *F = "xrSuggestInteractionProfileBindings";
     if (!rt_handle_get(instance, RT_INSTANCE)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrInstance");
     RT_CHECK_TYPE(b, XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING, F);
@@ -69,6 +73,7 @@ static XrResult XRAPI_CALL rt_SuggestInteractionProfileBindings(XrInstance insta
 }
 
 static XrResult XRAPI_CALL rt_AttachSessionActionSets(XrSession session, const XrSessionActionSetsAttachInfo *info) {
+    RT_LOCKED;
     const char *F = "xrAttachSessionActionSets";
     if (!rt_handle_get(session, RT_SESSION)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
     RT_CHECK_TYPE(info, XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO, F);
@@ -76,6 +81,7 @@ static XrResult XRAPI_CALL rt_AttachSessionActionSets(XrSession session, const X
 }
 
 static XrResult XRAPI_CALL rt_SyncActions(XrSession session, const XrActionsSyncInfo *info) {
+    RT_LOCKED;
     const char *F = "xrSyncActions";
     rt_session *s = rt_handle_get(session, RT_SESSION);
     if (!s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
@@ -86,6 +92,7 @@ static XrResult XRAPI_CALL rt_SyncActions(XrSession session, const XrActionsSync
 
 #define STATE_GETTER(fn, Type, TYPE_ENUM)                                                               \
     static XrResult XRAPI_CALL fn(XrSession session, const XrActionStateGetInfo *info, Type *state) { \
+        RT_LOCKED;                                                                                      \
         const char *F = #fn;                                                                            \
         if (!rt_handle_get(session, RT_SESSION)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession"); \
         RT_CHECK_TYPE(info, XR_TYPE_ACTION_STATE_GET_INFO, F);                                          \
@@ -105,6 +112,7 @@ STATE_GETTER(rt_GetActionStatePose, XrActionStatePose, XR_TYPE_ACTION_STATE_POSE
 
 static XrResult XRAPI_CALL rt_GetCurrentInteractionProfile(XrSession session, XrPath topLevelUserPath,
                                                            XrInteractionProfileState *state) {
+    RT_LOCKED;
     const char *F = "xrGetCurrentInteractionProfile";
     (void)topLevelUserPath;
     if (!rt_handle_get(session, RT_SESSION)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
@@ -115,6 +123,7 @@ static XrResult XRAPI_CALL rt_GetCurrentInteractionProfile(XrSession session, Xr
 
 static XrResult XRAPI_CALL rt_ApplyHapticFeedback(XrSession session, const XrHapticActionInfo *info,
                                                   const XrHapticBaseHeader *haptic) {
+    RT_LOCKED;
     (void)info;
     (void)haptic;
     if (!rt_handle_get(session, RT_SESSION))
@@ -123,6 +132,7 @@ static XrResult XRAPI_CALL rt_ApplyHapticFeedback(XrSession session, const XrHap
 }
 
 static XrResult XRAPI_CALL rt_StopHapticFeedback(XrSession session, const XrHapticActionInfo *info) {
+    RT_LOCKED;
     (void)info;
     if (!rt_handle_get(session, RT_SESSION))
         return rt_refuse(XR_ERROR_HANDLE_INVALID, "xrStopHapticFeedback", "not a live XrSession");

@@ -101,6 +101,7 @@ void rt_set_state(rt_session *s, XrSessionState state) {
 }
 
 static XrResult XRAPI_CALL rt_CreateSession(XrInstance instance, const XrSessionCreateInfo *info, XrSession *out) {
+    RT_LOCKED;
     const char *F = "xrCreateSession";
     rt_instance *inst = rt_handle_get(instance, RT_INSTANCE);
     if (!inst) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrInstance");
@@ -145,12 +146,14 @@ void rt_session_free(rt_session *s) {
 }
 
 static XrResult XRAPI_CALL rt_DestroySession(XrSession session) {
+    RT_LOCKED;
     GET_SESSION(s, session, "xrDestroySession");
     rt_session_free(s);
     return XR_SUCCESS;
 }
 
 static XrResult XRAPI_CALL rt_BeginSession(XrSession session, const XrSessionBeginInfo *info) {
+    RT_LOCKED;
     const char *F = "xrBeginSession";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_SESSION_BEGIN_INFO, F);
@@ -170,6 +173,7 @@ static XrResult XRAPI_CALL rt_BeginSession(XrSession session, const XrSessionBeg
 }
 
 static XrResult XRAPI_CALL rt_RequestExitSession(XrSession session) {
+    RT_LOCKED;
     const char *F = "xrRequestExitSession";
     GET_SESSION(s, session, F);
     CHECK_NOT_LOST(s, F);
@@ -182,6 +186,7 @@ static XrResult XRAPI_CALL rt_RequestExitSession(XrSession session) {
 }
 
 static XrResult XRAPI_CALL rt_EndSession(XrSession session) {
+    RT_LOCKED;
     const char *F = "xrEndSession";
     GET_SESSION(s, session, F);
     CHECK_NOT_LOST(s, F);
@@ -197,6 +202,7 @@ static XrResult XRAPI_CALL rt_EndSession(XrSession session) {
 /* ---- spaces ---- */
 static XrResult XRAPI_CALL rt_EnumerateReferenceSpaces(XrSession session, uint32_t capacity, uint32_t *countOutput,
                                                       XrReferenceSpaceType *spaces) {
+    RT_LOCKED;
     const char *F = "xrEnumerateReferenceSpaces";
     GET_SESSION(s, session, F);
     static const XrReferenceSpaceType types[] = {XR_REFERENCE_SPACE_TYPE_VIEW, XR_REFERENCE_SPACE_TYPE_LOCAL,
@@ -217,6 +223,7 @@ static int pose_valid(const XrPosef *p) {
 
 static XrResult XRAPI_CALL rt_CreateReferenceSpace(XrSession session, const XrReferenceSpaceCreateInfo *info,
                                                   XrSpace *out) {
+    RT_LOCKED;
     const char *F = "xrCreateReferenceSpace";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_REFERENCE_SPACE_CREATE_INFO, F);
@@ -237,6 +244,7 @@ static XrResult XRAPI_CALL rt_CreateReferenceSpace(XrSession session, const XrRe
 }
 
 static XrResult XRAPI_CALL rt_CreateActionSpace(XrSession session, const XrActionSpaceCreateInfo *info, XrSpace *out) {
+    RT_LOCKED;
     const char *F = "xrCreateActionSpace";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_ACTION_SPACE_CREATE_INFO, F);
@@ -252,6 +260,7 @@ static XrResult XRAPI_CALL rt_CreateActionSpace(XrSession session, const XrActio
 }
 
 static XrResult XRAPI_CALL rt_DestroySpace(XrSpace space) {
+    RT_LOCKED;
     rt_space *sp = rt_handle_get(space, RT_SPACE);
     if (!sp) return rt_refuse(XR_ERROR_HANDLE_INVALID, "xrDestroySpace", "not a live XrSpace");
     rt_handle_remove(sp);
@@ -261,6 +270,7 @@ static XrResult XRAPI_CALL rt_DestroySpace(XrSpace space) {
 
 static XrResult XRAPI_CALL rt_GetReferenceSpaceBoundsRect(XrSession session, XrReferenceSpaceType type,
                                                          XrExtent2Df *bounds) {
+    RT_LOCKED;
     const char *F = "xrGetReferenceSpaceBoundsRect";
     GET_SESSION(s, session, F);
     (void)type;
@@ -269,6 +279,7 @@ static XrResult XRAPI_CALL rt_GetReferenceSpaceBoundsRect(XrSession session, XrR
 }
 
 static XrResult XRAPI_CALL rt_LocateSpace(XrSpace space, XrSpace baseSpace, XrTime time, XrSpaceLocation *loc) {
+    RT_LOCKED;
     const char *F = "xrLocateSpace";
     rt_space *a = rt_handle_get(space, RT_SPACE), *b = rt_handle_get(baseSpace, RT_SPACE);
     if (!a || !b) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSpace");
@@ -291,6 +302,7 @@ static XrResult XRAPI_CALL rt_LocateSpace(XrSpace space, XrSpace baseSpace, XrTi
 
 /* ---- the frame loop ---- */
 static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo *info, XrFrameState *state) {
+    RT_LOCKED;
     const char *F = "xrWaitFrame";
     GET_SESSION(s, session, F);
     if (info && info->type != XR_TYPE_FRAME_WAIT_INFO)
@@ -304,9 +316,11 @@ static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo
     s->waits_unbegun++;
     if (cfg->pace) { /* block until this frame's slot opens, one period before its display */
         int64_t wait_ns = s->t0 + k * period - rt_now_ns();
-        if (wait_ns > 0) {
+        if (wait_ns > 0) { /* other threads may call in meanwhile (the lock is recursive) */
             struct timespec ts = {wait_ns / 1000000000, wait_ns % 1000000000};
+            rt_lock_release(NULL);
             nanosleep(&ts, NULL);
+            rt_lock_acquire();
         }
     }
     state->predictedDisplayTime = s->t0 + (k + 1) * period;
@@ -322,6 +336,7 @@ static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo
 }
 
 static XrResult XRAPI_CALL rt_BeginFrame(XrSession session, const XrFrameBeginInfo *info) {
+    RT_LOCKED;
     const char *F = "xrBeginFrame";
     GET_SESSION(s, session, F);
     if (info && info->type != XR_TYPE_FRAME_BEGIN_INFO)
@@ -341,6 +356,7 @@ static XrResult XRAPI_CALL rt_BeginFrame(XrSession session, const XrFrameBeginIn
 }
 
 static XrResult XRAPI_CALL rt_EndFrame(XrSession session, const XrFrameEndInfo *info) {
+    RT_LOCKED;
     const char *F = "xrEndFrame";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_FRAME_END_INFO, F);
@@ -386,6 +402,7 @@ static XrResult XRAPI_CALL rt_EndFrame(XrSession session, const XrFrameEndInfo *
 
 static XrResult XRAPI_CALL rt_LocateViews(XrSession session, const XrViewLocateInfo *info, XrViewState *viewState,
                                          uint32_t capacity, uint32_t *countOutput, XrView *views) {
+    RT_LOCKED;
     const char *F = "xrLocateViews";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_VIEW_LOCATE_INFO, F);

@@ -83,6 +83,7 @@ static int is_srgb(int64_t format) {
 /* ---- swapchains ---- */
 static XrResult XRAPI_CALL rt_EnumerateSwapchainFormats(XrSession session, uint32_t capacity, uint32_t *countOutput,
                                                        int64_t *formats) {
+    RT_LOCKED;
     const char *F = "xrEnumerateSwapchainFormats";
     rt_session *s = rt_handle_get(session, RT_SESSION);
     if (!s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
@@ -97,6 +98,7 @@ static XrResult XRAPI_CALL rt_EnumerateSwapchainFormats(XrSession session, uint3
 }
 
 static XrResult XRAPI_CALL rt_CreateSwapchain(XrSession session, const XrSwapchainCreateInfo *ci, XrSwapchain *out) {
+    RT_LOCKED;
     const char *F = "xrCreateSwapchain";
     rt_session *s = rt_handle_get(session, RT_SESSION);
     if (!s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
@@ -164,6 +166,7 @@ void rt_swapchain_free(rt_swapchain *sc) {
 }
 
 static XrResult XRAPI_CALL rt_DestroySwapchain(XrSwapchain swapchain) {
+    RT_LOCKED;
     GET_SWAPCHAIN(sc, swapchain, "xrDestroySwapchain");
     rt_swapchain_free(sc);
     return XR_SUCCESS;
@@ -171,6 +174,7 @@ static XrResult XRAPI_CALL rt_DestroySwapchain(XrSwapchain swapchain) {
 
 static XrResult XRAPI_CALL rt_EnumerateSwapchainImages(XrSwapchain swapchain, uint32_t capacity, uint32_t *countOutput,
                                                       XrSwapchainImageBaseHeader *images) {
+    RT_LOCKED;
     const char *F = "xrEnumerateSwapchainImages";
     GET_SWAPCHAIN(sc, swapchain, F);
     if (!countOutput) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "count output is NULL");
@@ -189,6 +193,7 @@ static XrResult XRAPI_CALL rt_EnumerateSwapchainImages(XrSwapchain swapchain, ui
 
 static XrResult XRAPI_CALL rt_AcquireSwapchainImage(XrSwapchain swapchain, const XrSwapchainImageAcquireInfo *info,
                                                    uint32_t *index) {
+    RT_LOCKED;
     const char *F = "xrAcquireSwapchainImage";
     GET_SWAPCHAIN(sc, swapchain, F);
     if (info && info->type != XR_TYPE_SWAPCHAIN_IMAGE_ACQUIRE_INFO)
@@ -205,6 +210,7 @@ static XrResult XRAPI_CALL rt_AcquireSwapchainImage(XrSwapchain swapchain, const
 }
 
 static XrResult XRAPI_CALL rt_WaitSwapchainImage(XrSwapchain swapchain, const XrSwapchainImageWaitInfo *info) {
+    RT_LOCKED;
     const char *F = "xrWaitSwapchainImage";
     GET_SWAPCHAIN(sc, swapchain, F);
     RT_CHECK_TYPE(info, XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO, F);
@@ -217,6 +223,7 @@ static XrResult XRAPI_CALL rt_WaitSwapchainImage(XrSwapchain swapchain, const Xr
 }
 
 static XrResult XRAPI_CALL rt_ReleaseSwapchainImage(XrSwapchain swapchain, const XrSwapchainImageReleaseInfo *info) {
+    RT_LOCKED;
     const char *F = "xrReleaseSwapchainImage";
     GET_SWAPCHAIN(sc, swapchain, F);
     if (info && info->type != XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO)
