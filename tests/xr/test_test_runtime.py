@@ -36,8 +36,8 @@ S = xr.SessionState
 # sRGB8 stores 8 bits after encoding: half a step (0.5/255) in encoded units is at most
 # 0.5/255 * d(decode)/dv <= 0.5/255 * 2.4/1.055 * 1 ~= 0.0045 in linear units (slope max at 1).
 SRGB8_TOL = 0.005
-GL_RGBA8UI = 0x8D7C  # an integer format: glGetTexImage(GL_RGBA, GL_FLOAT) cannot read it
 RGBA16F_TOL = 1e-3  # half floats: 11-bit mantissa, relative error 2^-11 ~ 5e-4 below 1.0
+GL_RGBA8UI = 0x8D7C  # an integer format: glGetTexImage(GL_RGBA, GL_FLOAT) cannot read it
 
 
 class SkippingApp(App):
