@@ -57,7 +57,13 @@ def _load() -> ctypes.CDLL:
     lib.eglTerminate.argtypes = [vp]
     lib.eglBindAPI.argtypes = [ctypes.c_uint]
     lib.eglBindAPI.restype = ctypes.c_uint
-    lib.eglChooseConfig.argtypes = [vp, ctypes.POINTER(i32), ctypes.POINTER(vp), i32, ctypes.POINTER(i32)]
+    lib.eglChooseConfig.argtypes = [
+        vp,
+        ctypes.POINTER(i32),
+        ctypes.POINTER(vp),
+        i32,
+        ctypes.POINTER(i32),
+    ]
     lib.eglChooseConfig.restype = ctypes.c_uint
     lib.eglCreateContext.argtypes = [vp, vp, vp, ctypes.POINTER(i32)]
     lib.eglCreateContext.restype = vp
@@ -96,7 +102,9 @@ class EGLContext:
         # are pbuffer-only); the swapchain images are textures with their own formats.
         # EGL_SURFACE_TYPE 0: any (its default, EGL_WINDOW_BIT, excludes surfaceless configs).
         wanted = _attribs(EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, 0)
-        if not lib.eglChooseConfig(self.display, wanted, ctypes.byref(config), 1, ctypes.byref(count)):
+        if not lib.eglChooseConfig(
+            self.display, wanted, ctypes.byref(config), 1, ctypes.byref(count)
+        ):
             self._fail("eglChooseConfig")
         if count.value < 1:
             raise EGLError("eglChooseConfig: no EGL config renders with desktop OpenGL")
@@ -109,9 +117,10 @@ class EGLContext:
         if not context:
             self._fail(f"eglCreateContext (OpenGL {major}.{minor} core)")
         self.context = context
-        self.get_proc_address = lib.eglGetProcAddress(b"eglGetProcAddress") or ctypes.cast(
-            lib.eglGetProcAddress, ctypes.c_void_p
-        ).value
+        self.get_proc_address = (
+            lib.eglGetProcAddress(b"eglGetProcAddress")
+            or ctypes.cast(lib.eglGetProcAddress, ctypes.c_void_p).value
+        )
         self._ctx = None
         self.make_current()
 
