@@ -181,6 +181,7 @@ class XRSession:
         self.exiting = False  # EXITING seen: the loop is over
         self.exit_requested = False
         self.period_s: float | None = None
+        self.located: tuple[LocatedView, ...] = ()
         self._binding = None  # kept alive while the session exists
         self._layer_keepalive: list = []
 
@@ -533,6 +534,7 @@ class XRSession:
         if flags & needed != needed or len(xr_views) != len(self.swapchains):
             return (), None  # no valid poses (tracking lost): submit no layer this frame
         views = tuple(_located(v) for v in xr_views)
+        self.located = views  # the pair, for a draw_eye that needs both (the head's centre)
         projection_views = (openxr.CompositionLayerProjectionView * len(views))()
         submitted: list[LocatedView] = []
         for index, chain in enumerate(self.swapchains):
