@@ -1,0 +1,319 @@
+"""The XTAL bridge (btf_addon/xr/) against the OpenXR test runtime through the real loader
+(fixtures in tests/xr/conftest.py): the session's life, the submitted images against an
+independent render of the submitted poses, captures, and the faults' errors.
+
+Eye sizes stay small (48×36): llvmpipe costs about 1 µs per pixel·light.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+import pytest
+
+from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.colour import srgb_encode
+from btf_addon.core.envmap import Environment
+from btf_addon.render.headsets import EyeFov, projection_from_fov
+from btf_addon.render.settings import RenderSettings
+from btf_addon.scene.primitives import plane, uv_sphere
+from btf_addon.scene.scene import Camera, Material, Scene, look_at
+
+EYE = (48, 36)
+CAMERA_AT = np.array([0.0, -4.0, 0.3])
+HEAD = [0.0, 1.6, 0.0]  # standing, in the runtime's +y-up space
+IPD = 0.064
+FOV_LEFT = [-0.80, 0.70, 0.78, -0.78]
+FOV_RIGHT = [-0.70, 0.80, 0.78, -0.78]
+# sRGB 8-bit quantisation: the submitted image holds round(255·encode(x)); our float render
+# encoded the same way differs by at most half a step from the stored value, plus float
+# accumulation order (batches of K vs one batch: ~1e-6 relative) → 1/255 covers both.
+SRGB_TOLERANCE = 1.0 / 255 + 1e-6
+
+
+def small_scene(rng) -> Scene:
+    """A GGX sphere on a Lambertian floor under a random environment, the camera 4 m back
+    looking along +Y (heading 0)."""
+    floor = plane(6.0, uv_repeats=3.0, material=1)
+    floor.world_from_object = np.eye(4)
+    floor.world_from_object[2, 3] = -1.0
+    return Scene(
+        [uv_sphere(1.0, segments=24, rings=12), floor],
+        [Material(GGXBTF((0.9, 0.6, 0.3), 0.35)), Material(LambertianBTF(0.5))],
+        Camera(
+            look_at(CAMERA_AT, CAMERA_AT + np.array([0.0, 1.0, 0.0])),
+            clip_start=0.05,
+            clip_end=50.0,
+        ),
+        Environment(rng.gamma(0.7, 1.0, size=(16, 32, 3))),
+    )
+
+
+def head(dx: float = 0.0, yaw: float = 0.0) -> list[float]:
+    """A head pose [x, y, z, qx, qy, qz, qw]: ``dx`` metres right, ``yaw`` radians left."""
+    return [HEAD[0] + dx, HEAD[1], HEAD[2], 0.0, math.sin(yaw / 2), 0.0, math.cos(yaw / 2)]
+
+
+def script(xr_runtime, **overrides):
+    values = {
+        "eye_size": list(EYE),
+        "ipd": IPD,
+        "fov": {"left": FOV_LEFT, "right": FOV_RIGHT},
+        "display_period_s": 0.01,
+        "head": [head()],
+    }
+    values.update(overrides)
+    return xr_runtime.script(**values)
+
+
+def settings(**kw):
+    from btf_addon.xr.bridge import BridgeSettings
+
+    kw.setdefault("show_hud", False)
+    kw.setdefault("lights_total", 8)
+    return BridgeSettings(**kw)
+
+
+# --- an independent render, not the bridge's code path -----------------------------------
+def rotation(q) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) → (3, 3) rotation (the textbook formula)."""
+    x, y, z, w = q
+    return np.array(
+        [
+            [w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z],
+        ]
+    )
+
+
+def world_from_eye(pose, first_head) -> np.ndarray:
+    """Where the bridge's documentation says an eye is: the runtime's space turned +y-up →
+    +z-up, the first head position moved onto the scene camera (heading 0 here)."""
+    eye_in_space = np.eye(4)
+    eye_in_space[:3, :3] = rotation(pose[3:])
+    eye_in_space[:3, 3] = np.subtract(pose[:3], first_head)
+    zup = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], dtype=float)
+    to_camera = np.eye(4)
+    to_camera[:3, 3] = CAMERA_AT
+    return to_camera @ zup @ eye_in_space
+
+
+def independent_render(gl_ctx, scene, pose, fov, first_head, lights_total) -> np.ndarray:
+    """(h, w, 3) float32 linear, row 0 at the bottom: all lights at once."""
+    from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
+    from btf_addon.gl.moderngl_device import ModernGLDevice
+
+    world_from_view = world_from_eye(pose, first_head)
+    clip_from_view = projection_from_fov(EyeFov(*fov), scene.camera.clip_start, 50.0)
+    device = ModernGLDevice(gl_ctx)
+    drawer = ProgressiveDrawer(device, scene)
+    view = ViewAccumulation(device, *EYE)
+    try:
+        view.set_lights(scene.environment.virtual_lights(lights_total, seed=0), lights_total)
+        drawer.restart(
+            view, clip_from_view @ np.linalg.inv(world_from_view), [*world_from_view[:3, 3], 1]
+        )
+        while drawer.add_batch(view):
+            pass
+        drawer.resolve(view)
+        return view.read()[..., :3]
+    finally:
+        view.release()
+        drawer.release()
+        device.close()
+
+
+def encoded(image) -> np.ndarray:
+    return srgb_encode(np.clip(np.asarray(image, dtype=np.float64), 0.0, 1.0))
+
+
+# --- the session ----------------------------------------------------------------------------
+def test_session_reaches_focused_submits_stereo_frames_and_ends_cleanly(xr_runtime, rng):
+    from btf_addon.xr.bridge import XRBridge
+
+    script(xr_runtime)
+    bridge = XRBridge(small_scene(rng), RenderSettings(), settings())
+    bridge.start()
+    states = []
+    try:
+        while bridge.run_frame():
+            states.append(bridge.status.state)
+            if bridge.frames >= 5:
+                bridge.request_stop()
+        assert len(states) < 200, "the runtime never ended the session"
+    finally:
+        bridge.close()
+    assert "FOCUSED" in states
+    assert bridge.status.state == "ended"
+    assert bridge.status.runtime == "BTF test runtime"
+    assert bridge.status.eye_size == EYE
+    assert bridge.status.values_from == "runtime"
+    frames = xr_runtime.captured()
+    assert len(frames) == 5
+    for frame in frames:
+        assert len(frame.views) == 2
+        for view in frame.views:
+            assert view.image.shape == (EYE[1], EYE[0], 4)
+            assert view.format == 0x8C43  # GL_SRGB8_ALPHA8: the preferred format, offered first
+    # Poses as submitted: the located ones (no --converge), the eyes IPD apart.
+    left, right = frames[0].views[0].pose, frames[0].views[1].pose
+    assert np.linalg.norm(np.subtract(left[:3], right[:3])) == pytest.approx(IPD, abs=1e-6)
+    assert frames[0].views[0].fov == pytest.approx(FOV_LEFT, abs=1e-6)
+    assert frames[0].views[1].fov == pytest.approx(FOV_RIGHT, abs=1e-6)
+
+
+def test_submitted_images_equal_an_independent_render_of_the_submitted_poses(
+    xr_runtime, rng, gl_ctx
+):
+    """--converge: the first located pose is held while the lights accumulate (the head moves
+    every frame in the script); the last frame submitted with it has all 8 lights in, and each
+    eye then equals a render of that pose with all lights at once, within sRGB 8-bit
+    quantisation."""
+    from btf_addon.xr.bridge import run_bridge
+
+    path = [head(0.01 * i, 0.02 * i) for i in range(12)]
+    script(xr_runtime, head=path)
+    scene = small_scene(rng)
+    # A large budget: K grows every frame, so 8 lights are in within a few frames.
+    run_bridge(scene, RenderSettings(), settings(converge=True, budget_s=10.0), frames=8)
+    frames = xr_runtime.captured()
+    held = [f for f in frames if f.views[0].pose == pytest.approx(frames[0].views[0].pose)]
+    assert 2 <= len(held) < len(frames), "the pose was not held, or never released"
+    assert held == frames[: len(held)]  # held from the first frame on, then released
+    converged = held[-1]
+    for view in converged.views:
+        ours = independent_render(gl_ctx, scene, view.pose, view.fov, np.array(HEAD), 8)
+        diff = np.abs(encoded(view.image[..., :3]) - encoded(ours))
+        assert diff.max() <= SRGB_TOLERANCE, diff.max()
+        assert ours.mean() > 0.02  # the sphere and floor are in view, not a black frame
+
+
+def test_captures_agree_with_the_submitted_frames(xr_runtime, rng, tmp_path):
+    from btf_addon.xr.bridge import run_bridge
+    from btf_addon.xr.capture import read_eye
+
+    script(xr_runtime, head=[head(0.02 * i) for i in range(6)])
+    run_bridge(
+        small_scene(rng),
+        RenderSettings(),
+        settings(capture_dir=tmp_path / "cap", show_hud=True, exposure=0.5),
+        frames=4,
+    )
+    frames = xr_runtime.captured()
+    assert len(frames) == 4
+    done = []
+    for n, frame in enumerate(frames):
+        for view, eye in zip(frame.views, ("left", "right"), strict=True):
+            meta, image = read_eye(tmp_path / "cap" / f"frame_{n:05d}_{eye}.json")
+            assert meta["runtime"] == "BTF test runtime"
+            assert meta["pose"] == pytest.approx(view.pose, abs=1e-6)
+            assert meta["fov"] == pytest.approx(view.fov, abs=1e-6)
+            assert meta["eye_size"] == list(EYE)
+            assert meta["exposure"] == 0.5
+            # The EXR (row 0 at the top) is the linear image the swapchain got (HUD included).
+            diff = np.abs(encoded(image[::-1]) - encoded(view.image[..., :3]))
+            assert diff.max() <= SRGB_TOLERANCE, diff.max()
+            if eye == "left":
+                done.append(meta["lights_done"])
+    # Each eye moves every frame here, so each frame restarts: the lights of that frame only.
+    assert all(1 <= d <= 8 for d in done)
+
+
+def test_request_stop_and_status_from_another_thread(xr_runtime, rng):
+    """The operator's pattern: the frame loop on a worker thread, status/stop from another."""
+    from btf_addon.xr.bridge import XRBridge
+
+    script(xr_runtime)
+    bridge = XRBridge(small_scene(rng), RenderSettings(), settings())
+    errors, seen = [], []
+
+    def loop():
+        try:
+            bridge.start()
+            while bridge.run_frame():
+                pass
+        except Exception as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+        finally:
+            bridge.close()
+
+    worker = threading.Thread(target=loop)
+    worker.start()
+    for _ in range(2000):
+        seen.append(bridge.status.frames)
+        if bridge.status.frames >= 3:
+            break
+        threading.Event().wait(0.01)
+    bridge.set_scene(small_scene(np.random.default_rng(1)))
+    bridge.request_stop()
+    worker.join(timeout=120)
+    assert not worker.is_alive() and not errors, errors
+    assert max(seen) >= 3
+    assert bridge.status.state == "ended"
+    assert bridge.pop_edits() == []  # the test runtime's controllers are inactive
+
+
+# --- faults ---------------------------------------------------------------------------------
+def test_no_runtime(monkeypatch, rng, tmp_path):
+    from btf_addon.xr.bridge import NoRuntimeError, run_bridge
+
+    missing = tmp_path / "missing_runtime.json"
+    monkeypatch.setenv("XR_RUNTIME_JSON", str(missing))
+    with pytest.raises(NoRuntimeError) as info:
+        run_bridge(small_scene(rng), RenderSettings(), settings(), frames=1)
+    assert info.value.exit_code == 3
+    assert str(missing) in str(info.value) and "does not exist" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("overrides", "error", "code", "words"),
+    [
+        ({"system_available": False}, "NoHeadsetError", 4, "no head-mounted display"),
+        ({"views": 3}, "UnsupportedRuntimeError", 6, "3 views"),
+        ({"formats": [0x81A6]}, "UnsupportedRuntimeError", 6, "no swapchain format"),
+        ({"extensions": ["XR_KHR_opengl_enable"]}, "UnsupportedRuntimeError", 6, "MNDX"),
+    ],
+)
+def test_runtime_faults_give_clear_errors(xr_runtime, rng, overrides, error, code, words):
+    from btf_addon.xr import bridge as bridge_module
+
+    script(xr_runtime, **overrides)
+    with pytest.raises(bridge_module.BridgeError) as info:
+        bridge_module.run_bridge(small_scene(rng), RenderSettings(), settings(), frames=2)
+    assert type(info.value).__name__ == error
+    assert info.value.exit_code == code
+    assert words in str(info.value)
+
+
+def test_session_lost_mid_run(xr_runtime, rng):
+    from btf_addon.xr.bridge import SessionLostError, run_bridge
+
+    script(xr_runtime, lose_session_after_frames=3)
+    with pytest.raises(SessionLostError) as info:
+        run_bridge(small_scene(rng), RenderSettings(), settings(), frames=10)
+    assert info.value.exit_code == 5
+    assert "lost the session" in str(info.value)
+    assert len(xr_runtime.captured()) == 3
+
+
+@pytest.mark.parametrize(("fmt", "name"), [(0x881A, "RGBA16F"), (0x8058, "RGBA8")])
+def test_linear_swapchain_formats_get_linear_values(xr_runtime, rng, gl_ctx, fmt, name):
+    """Without sRGB formats the bridge writes linear values (what the runtime reads from a
+    UNORM/float image); RGBA8's step is 1/255 in linear terms, RGBA16F's far finer."""
+    from btf_addon.xr.bridge import run_bridge
+
+    script(xr_runtime, formats=[fmt])
+    scene = small_scene(rng)
+    run_bridge(scene, RenderSettings(), settings(converge=True, budget_s=10.0), frames=8)
+    frames = xr_runtime.captured()
+    held = [f for f in frames if f.views[0].pose == pytest.approx(frames[0].views[0].pose)]
+    view = held[-1].views[0]  # the last frame of the held pose: all lights in
+    assert view.format == fmt, name
+    ours = independent_render(gl_ctx, scene, view.pose, view.fov, np.array(HEAD), 8)
+    if fmt == 0x8058:  # UNORM: clamped to [0, 1], half a step of rounding
+        assert np.abs(np.clip(ours, 0, 1) - view.image[..., :3]).max() <= 0.5 / 255 + 1e-6
+    else:  # half float: 11 significant bits, relative error ≤ 2^-11 ≈ 4.9e-4
+        assert np.allclose(view.image[..., :3], ours, rtol=5e-4, atol=1e-6)
