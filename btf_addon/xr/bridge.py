@@ -441,6 +441,7 @@ class XRBridge:
             with self.device.bound(view.output):  # the same draws, into a float target
                 self.drawer.draw_resolved(view, self.settings.exposure)
                 if self.settings.show_hud and eye.hud_image is not None:
+                    self.hud.set_image(eye.hud_image)  # this eye's text (uploads if it differs)
                     self.hud.draw(clip_from_view, self._hud_corners(eye, index))
             meta = {
                 "display_time_ns": info.display_time,

@@ -199,7 +199,10 @@ def test_captures_agree_with_the_submitted_frames(xr_runtime, rng, tmp_path):
     run_bridge(
         small_scene(rng),
         RenderSettings(),
-        settings(capture_dir=tmp_path / "cap", show_hud=True, exposure=0.5),
+        # No HUD: its translucent panel is blended over the float image in the capture but
+        # over the 8-bit (clamped) one in the swapchain, so they differ under it where the
+        # scene is brighter than 1 (docs/user-guide.md says so).
+        settings(capture_dir=tmp_path / "cap", exposure=0.5),
         frames=4,
     )
     frames = xr_runtime.captured()
@@ -213,7 +216,7 @@ def test_captures_agree_with_the_submitted_frames(xr_runtime, rng, tmp_path):
             assert meta["fov"] == pytest.approx(view.fov, abs=1e-6)
             assert meta["eye_size"] == list(EYE)
             assert meta["exposure"] == 0.5
-            # The EXR (row 0 at the top) is the linear image the swapchain got (HUD included).
+            # The EXR (row 0 at the top) is the linear image the swapchain got.
             diff = np.abs(encoded(image[::-1]) - encoded(view.image[..., :3]))
             assert diff.max() <= SRGB_TOLERANCE, diff.max()
             if eye == "left":
@@ -274,10 +277,11 @@ def test_no_runtime(monkeypatch, rng, tmp_path):
         ({"system_available": False}, "NoHeadsetError", 4, "no head-mounted display"),
         ({"views": 3}, "UnsupportedRuntimeError", 6, "3 views"),
         ({"formats": [0x81A6]}, "UnsupportedRuntimeError", 6, "no swapchain format"),
-        ({"extensions": ["XR_KHR_opengl_enable"]}, "UnsupportedRuntimeError", 6, "MNDX"),
     ],
 )
 def test_runtime_faults_give_clear_errors(xr_runtime, rng, overrides, error, code, words):
+    """(A runtime without XR_MNDX_egl_enable is tested through the CLI, in a process of its
+    own: the loader keeps the first extension list it read in a process.)"""
     from btf_addon.xr import bridge as bridge_module
 
     script(xr_runtime, **overrides)
@@ -315,5 +319,6 @@ def test_linear_swapchain_formats_get_linear_values(xr_runtime, rng, gl_ctx, fmt
     ours = independent_render(gl_ctx, scene, view.pose, view.fov, np.array(HEAD), 8)
     if fmt == 0x8058:  # UNORM: clamped to [0, 1], half a step of rounding
         assert np.abs(np.clip(ours, 0, 1) - view.image[..., :3]).max() <= 0.5 / 255 + 1e-6
-    else:  # half float: 11 significant bits, relative error ≤ 2^-11 ≈ 4.9e-4
-        assert np.allclose(view.image[..., :3], ours, rtol=5e-4, atol=1e-6)
+    else:  # half float: 11 significant bits; one ulp (2^-10 ≈ 9.8e-4 relative) covers
+        # rounding either way (llvmpipe's conversion truncates)
+        assert np.allclose(view.image[..., :3], ours, rtol=2.0**-10, atol=1e-6)

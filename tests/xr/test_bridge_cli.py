@@ -80,6 +80,7 @@ def test_bridge_runs_frames_prints_what_it_used_and_captures(xr_runtime, blend, 
         ({"lose_session_after_frames": 2}, 5, "lost the session"),
         ({"views": 3}, 6, "3 views"),
         ({"formats": [0x81A6]}, 6, "no swapchain format"),
+        ({"extensions": ["XR_KHR_opengl_enable"]}, 6, "XR_MNDX_egl_enable"),
     ],
 )
 def test_bridge_exit_codes(xr_runtime, blend, overrides, code, words):
