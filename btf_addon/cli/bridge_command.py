@@ -91,7 +91,8 @@ def _positive_float(text: str) -> float:
 
 
 def cmd_bridge(args) -> int:
-    from ..xr.bridge import BridgeError, BridgeSettings, run_bridge
+    from ..controllers import actions, xr_bindings
+    from ..xr.bridge import BridgeError, BridgeSettings, ControlMap, run_bridge
 
     if not args.blend.is_file():
         raise BTFError(f"{args.blend}: no such .blend file")
@@ -108,7 +109,10 @@ def cmd_bridge(args) -> int:
     for message in scene.messages:
         print(f"note: {message}", file=sys.stderr)
     try:
-        status = run_bridge(scene, render_settings, settings, frames=args.frames)
+        controls = ControlMap(
+            xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
+        )
+        status = run_bridge(scene, render_settings, settings, args.frames, controls)
     except BridgeError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return exc.exit_code

@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..controllers.actions import Edit
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.hud import HudDrawer
 from ..render.frame_budget import FrameBudget, view_moved
@@ -42,6 +41,7 @@ from ..render.hud import hud_quad, raster_text, status_lines
 from ..render.lighting import frame_lights
 from ..render.settings import Lighting, RenderSettings
 from ..scene.scene import Scene
+from .controls import ControlMap
 from .errors import (
     BridgeError,
     NoHeadsetError,
@@ -54,6 +54,7 @@ __all__ = [
     "BridgeError",
     "BridgeSettings",
     "BridgeStatus",
+    "ControlMap",
     "NoHeadsetError",
     "NoRuntimeError",
     "SessionLostError",
@@ -142,13 +143,16 @@ def world_from_space(world_from_camera: np.ndarray, head_in_space: np.ndarray) -
 
 
 class XRBridge:
-    """The bridge over one scene (module docstring). ``clock``: seconds, injectable."""
+    """The bridge over one scene (module docstring). ``controls``: the controller vocabulary
+    (xr/controls.py ``ControlMap``; None: no controller input); ``clock``: seconds,
+    injectable."""
 
     def __init__(
         self,
         scene: Scene,
         render_settings: RenderSettings,
         settings: BridgeSettings,
+        controls: ControlMap | None = None,
         clock=time.perf_counter,
     ):
         self.profile = headset_profile(settings.profile)  # ValueError for an unknown name
@@ -163,7 +167,8 @@ class XRBridge:
         self._lock = threading.Lock()
         self._pending_scene: Scene | None = None
         self._stop = False
-        self._edits: list[Edit] = []
+        self._edits: list = []  # controllers.actions.Edit (made by the ControlMap)
+        self.control_map = controls
         self._status = BridgeStatus(values_from="runtime")
         self.egl = self.session = self.device = self.drawer = self.hud = self.controls = None
         self.eyes: list[_Eye] = []
@@ -191,8 +196,9 @@ class XRBridge:
         with self._lock:
             self._stop = True
 
-    def pop_edits(self) -> list[Edit]:
-        """The controller edits since the last call (oldest first)."""
+    def pop_edits(self) -> list:
+        """The controller edits since the last call (oldest first): ``controllers.actions.
+        Edit``s as the ControlMap makes them."""
         with self._lock:
             edits, self._edits = self._edits, []
         return edits
@@ -228,9 +234,11 @@ class XRBridge:
     def _start_controls(self) -> None:
         from .controls import Controls
 
+        if self.control_map is None:
+            return
         try:
             s = self.session
-            self.controls = Controls(s.xr, s.instance, s.session)
+            self.controls = Controls(s.xr, s.instance, s.session, self.control_map)
         except Exception as exc:  # controllers are optional: say so, draw anyway
             self.controls = None
             self._message = f"no controller input ({exc})"
@@ -507,14 +515,18 @@ def run_bridge(
     render_settings: RenderSettings,
     settings: BridgeSettings,
     frames: int | None = None,
+    controls: ControlMap | None = None,
 ) -> BridgeStatus:
     """Start, run ``frames`` submitted frames (None: until the runtime ends the session),
-    ask the runtime to end the session, let it end cleanly, close. Returns the last status;
-    raises BridgeError subclasses."""
-    bridge = XRBridge(scene, render_settings, settings)
+    ask the runtime to end the session, let it end cleanly, close. Controller edits
+    (``controls``) are logged at INFO. Returns the last status; raises BridgeError
+    subclasses."""
+    bridge = XRBridge(scene, render_settings, settings, controls)
     bridge.start()
     try:
         while bridge.run_frame():
+            for edit in bridge.pop_edits():  # nothing applies them here: logged (CLI -v)
+                log.info("controller: %s", edit)
             if frames is not None and bridge.frames >= frames:
                 bridge.request_stop()
         return bridge.status

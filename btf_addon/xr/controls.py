@@ -1,7 +1,10 @@
 """The VR controllers through the runtime's action system, mapped to the shared vocabulary.
 
 The action set and its bindings are the data of ``controllers/xr_bindings.py`` (the same
-actions and interaction profiles as Blender's own VR session): one OpenXR action per item
+actions and interaction profiles as Blender's own VR session), handed in by the caller as a
+``ControlMap``: ``controllers/`` is this package's sibling in the layer order (both layer 5),
+so neither imports the other; the CLI and the Blender operator (higher layers) build the map
+from ``controllers.xr_bindings`` and ``controllers.actions``. One OpenXR action per item
 (FLOAT inputs with the item's user paths as subaction paths, POSE inputs for grip and aim),
 bindings suggested per profile, the set attached to the session, synced every frame. A float
 state beyond the item's threshold is a press: PRESS items give one ``Edit`` per press (rising
@@ -16,17 +19,30 @@ controller input and says so in its status message.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
-
-from ..controllers.actions import Edit
-from ..controllers.xr_bindings import ACTION_SET, XR_ACTIONS, XrAction, is_continuous
 
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
+class ControlMap:
+    """The controller vocabulary as data. ``action_set``: the OpenXR action-set name;
+    ``items``: ``controllers.xr_bindings.XrAction``-shaped entries (``name``, ``type``,
+    ``user_paths``, ``bindings`` with ``profile``/``component_paths``/``threshold``,
+    ``action``, ``amount``); ``make_edit``: ``controllers.actions.Edit`` (called as
+    ``make_edit(t, action, amount, end=...)``); ``continuous``: the actions that are
+    gestures (``controllers.actions.CONTINUOUS``)."""
+
+    action_set: str
+    items: tuple
+    make_edit: Callable
+    continuous: frozenset
+
+
 @dataclass
 class _Input:
-    item: XrAction
+    item: object  # an XrAction-shaped entry of ControlMap.items
     handle: object
     subaction_paths: list[tuple[str, int]]  # (user path, XrPath)
 
@@ -34,18 +50,21 @@ class _Input:
 class Controls:
     """The action set on one session. ``poll(t, dt)`` syncs and returns the edits."""
 
-    def __init__(self, openxr, instance, session):
+    def __init__(self, openxr, instance, session, control_map: ControlMap):
         self.xr, self.instance, self.session = openxr, instance, session
+        self.map = control_map
         self.action_set = openxr.create_action_set(
             instance,
             openxr.ActionSetCreateInfo(
-                action_set_name=ACTION_SET, localized_action_set_name="BTF VR", priority=0
+                action_set_name=control_map.action_set,
+                localized_action_set_name="BTF VR",
+                priority=0,
             ),
         )
         self.inputs: list[_Input] = []
         self.pressed: dict[tuple[str, str], bool] = {}
         suggestions: dict[str, list] = {}
-        for item in XR_ACTIONS:
+        for item in control_map.items:
             paths = [(p, openxr.string_to_path(instance, p)) for p in item.user_paths]
             kind = (
                 openxr.ActionType.POSE_INPUT
@@ -86,7 +105,7 @@ class Controls:
             session, openxr.SessionActionSetsAttachInfo(action_sets=[self.action_set])
         )
 
-    def poll(self, t: float, dt: float) -> list[Edit]:
+    def poll(self, t: float, dt: float) -> list:
         """Sync the actions (the session must be FOCUSED for states to be active) and turn
         the float states into edits at time ``t`` (seconds); ``dt``: seconds since the last
         poll (continuous amounts)."""
@@ -100,7 +119,7 @@ class Controls:
             )
         except openxr.SessionNotFocused:
             return []
-        edits: list[Edit] = []
+        edits, make_edit = [], self.map.make_edit
         for entry in self.inputs:
             item = entry.item
             threshold = item.bindings[0].threshold if item.bindings else 0.3
@@ -113,13 +132,13 @@ class Controls:
                 down = abs(value) > threshold
                 was = self.pressed.get(key, False)
                 self.pressed[key] = down
-                if is_continuous(item):
+                if item.action in self.map.continuous:
                     if down:
-                        edits.append(Edit(t, item.action, item.amount * value * dt))
+                        edits.append(make_edit(t, item.action, item.amount * value * dt))
                     elif was:
-                        edits.append(Edit(t, item.action, 0.0, end=True))
+                        edits.append(make_edit(t, item.action, 0.0, end=True))
                 elif down and not was:
-                    edits.append(Edit(t, item.action, item.amount))
+                    edits.append(make_edit(t, item.action, item.amount))
         return edits
 
     def close(self) -> None:

@@ -227,15 +227,20 @@ def test_captures_agree_with_the_submitted_frames(xr_runtime, rng, tmp_path):
 
 def test_request_stop_and_status_from_another_thread(xr_runtime, rng):
     """The operator's pattern: the frame loop on a worker thread, status/stop from another."""
-    from btf_addon.xr.bridge import XRBridge
+    from btf_addon.controllers import actions, xr_bindings
+    from btf_addon.xr.bridge import ControlMap, XRBridge
 
     script(xr_runtime)
-    bridge = XRBridge(small_scene(rng), RenderSettings(), settings())
-    errors, seen = [], []
+    controls = ControlMap(
+        xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
+    )
+    bridge = XRBridge(small_scene(rng), RenderSettings(), settings(), controls)
+    errors, seen, attached = [], [], []
 
     def loop():
         try:
             bridge.start()
+            attached.append(bridge.controls is not None and bool(bridge.controls.profiles))
             while bridge.run_frame():
                 pass
         except Exception as exc:  # pragma: no cover - reported below
@@ -256,7 +261,10 @@ def test_request_stop_and_status_from_another_thread(xr_runtime, rng):
     assert not worker.is_alive() and not errors, errors
     assert max(seen) >= 3
     assert bridge.status.state == "ended"
-    assert bridge.pop_edits() == []  # the test runtime's controllers are inactive
+    # The action set was made, bindings suggested and attached; the test runtime's
+    # controllers report inactive states, so no edits.
+    assert attached == [True] and bridge.status.message == ""
+    assert bridge.pop_edits() == []
 
 
 # --- faults ---------------------------------------------------------------------------------
