@@ -1,0 +1,644 @@
+"""The OpenXR test runtime (tests/xr_runtime), driven through the REAL OpenXR loader with
+pyopenxr and a surfaceless EGL OpenGL context, as any GL app would drive a headset runtime.
+
+What is checked is the runtime's own contract (docs/development.md "The OpenXR test runtime"):
+the simulated HMD, the session state machine, the frame loop, the capture, and the faults.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import time
+
+import numpy as np
+import pytest
+from xr_runtime.build import LIBRARY_NAME, RuntimeBuildError, build_runtime, missing_tools
+from xr_runtime.readback import srgb_to_linear
+
+xr = pytest.importorskip("xr", reason="pyopenxr is in requirements/common.txt")
+
+GL_SRGB8_ALPHA8, GL_RGBA8, GL_RGBA16F, GL_RGBA32F = 0x8C43, 0x8058, 0x881A, 0x8814
+GL_FRAMEBUFFER_SRGB = 0x8DB9
+EXTENSIONS = ["XR_KHR_opengl_enable", "XR_MNDX_egl_enable"]
+STEREO = xr.ViewConfigurationType.PRIMARY_STEREO
+S = State = xr.SessionState
+# sRGB8 stores 8 bits after encoding: half a step (0.5/255) in encoded units is at most
+# 0.5/255 * d(decode)/dv <= 0.5/255 * 2.4/1.055 * 1 ~= 0.0045 in linear units (slope max at 1).
+SRGB8_TOL = 0.005
+RGBA16F_TOL = 1e-3  # half floats: 11-bit mantissa, relative error 2^-11 ~ 5e-4 below 1.0
+
+
+# ---------------------------------------------------------------------------------------------
+# a minimal OpenXR GL app over pyopenxr
+# ---------------------------------------------------------------------------------------------
+class App:
+    """Instance + system; ``start()`` makes the EGL context and the session."""
+
+    def __init__(self, extensions=EXTENSIONS, api_version=None):
+        info = xr.ApplicationInfo(application_name="btf runtime test")
+        if api_version is not None:
+            info.api_version = api_version
+        self.instance = xr.create_instance(
+            xr.InstanceCreateInfo(application_info=info, enabled_extension_names=extensions)
+        )
+        self.system = None
+        self.session = None
+        self.egl = None
+        self.gl = None
+        self.spaces, self.swapchains, self.states = [], [], []
+
+    def get_system(self):
+        self.system = xr.get_system(
+            self.instance, xr.SystemGetInfo(form_factor=xr.FormFactor.HEAD_MOUNTED_DISPLAY)
+        )
+        return self.system
+
+    def graphics_requirements(self):
+        pfn = ctypes.cast(
+            xr.get_instance_proc_addr(self.instance, "xrGetOpenGLGraphicsRequirementsKHR"),
+            xr.PFN_xrGetOpenGLGraphicsRequirementsKHR,
+        )
+        req = xr.GraphicsRequirementsOpenGLKHR()
+        result = xr.check_result(xr.Result(pfn(self.instance, self.system, ctypes.byref(req))))
+        if result.is_exception():
+            raise result
+        return req
+
+    def start(self, requirements=True):
+        """EGL context, then the session (binding chained in next)."""
+        from xr_runtime.egl import EGLError, ModernGLLoader, create_egl_context
+
+        if self.system is None:
+            self.get_system()
+        if requirements:
+            self.graphics_requirements()
+        if self.egl is None:
+            try:
+                self.egl = create_egl_context()
+            except EGLError as exc:
+                pytest.skip(f"no surfaceless EGL OpenGL here ({exc})")
+            import moderngl
+
+            self.gl = moderngl.create_context(require=330, context=ModernGLLoader(self.egl))
+        self._binding = self.egl.binding()  # kept alive: the runtime reads it in xrCreateSession
+        info = xr.SessionCreateInfo(
+            system_id=self.system,
+            next=ctypes.cast(ctypes.pointer(self._binding), ctypes.c_void_p),
+        )
+        self.session = xr.create_session(self.instance, info)
+        return self.session
+
+    def poll(self) -> list:
+        """Drain the event queue; session states are appended to self.states."""
+        events = []
+        while True:
+            try:
+                buf = xr.poll_event(self.instance)
+            except xr.EventUnavailable:
+                return events
+            if xr.StructureType(buf.type) == xr.StructureType.EVENT_DATA_SESSION_STATE_CHANGED:
+                ev = ctypes.cast(
+                    ctypes.byref(buf), ctypes.POINTER(xr.EventDataSessionStateChanged)
+                ).contents
+                self.states.append(xr.SessionState(ev.state))
+            events.append(buf.type)
+
+    def space(self, kind=xr.ReferenceSpaceType.LOCAL):
+        sp = xr.create_reference_space(
+            self.session, xr.ReferenceSpaceCreateInfo(reference_space_type=kind)
+        )
+        self.spaces.append(sp)
+        return sp
+
+    def swapchain(self, fmt, width, height):
+        sc = xr.create_swapchain(
+            self.session,
+            xr.SwapchainCreateInfo(
+                usage_flags=xr.SwapchainUsageFlags.COLOR_ATTACHMENT_BIT,
+                format=fmt,
+                sample_count=1,
+                width=width,
+                height=height,
+                face_count=1,
+                array_size=1,
+                mip_count=1,
+            ),
+        )
+        images = xr.enumerate_swapchain_images(sc, xr.SwapchainImageOpenGLKHR)
+        self.swapchains.append(sc)
+        return sc, [img.image for img in images]
+
+    def clear_image(self, texture, size, colour, corner_colour):
+        """Clear a swapchain texture to ``colour`` (linear), its bottom-left quarter to
+        ``corner_colour``; sRGB textures encode on write (GL_FRAMEBUFFER_SRGB)."""
+        tex = self.gl.external_texture(texture, size, 4, 0, "f1")
+        fbo = self.gl.framebuffer(color_attachments=[tex])
+        self.gl.enable_direct(GL_FRAMEBUFFER_SRGB)
+        fbo.clear(*colour)
+        fbo.clear(*corner_colour, viewport=(0, 0, size[0] // 2, size[1] // 2))
+        self.gl.finish()
+        fbo.release()
+
+    def begin(self, view_info: xr.ReferenceSpaceType = xr.ReferenceSpaceType.LOCAL):
+        xr.begin_session(self.session, xr.SessionBeginInfo(primary_view_configuration_type=STEREO))
+
+    def close(self):
+        for sc in self.swapchains:
+            try:
+                xr.destroy_swapchain(sc)
+            except xr.HandleInvalidError:
+                pass
+        for sp in self.spaces:
+            try:
+                xr.destroy_space(sp)
+            except xr.HandleInvalidError:
+                pass
+        if self.session is not None:
+            xr.destroy_session(self.session)
+        if self.gl is not None:
+            self.gl.release()
+        if self.egl is not None:
+            self.egl.destroy()
+        xr.destroy_instance(self.instance)
+
+
+@pytest.fixture
+def app_factory():
+    apps = []
+
+    def make(**kwargs):
+        apps.append(App(**kwargs))
+        return apps[-1]
+
+    yield make
+    for app in apps:
+        app.close()
+
+
+def submit_frame(app, space, chains, colours, rects=None):
+    """One full frame: wait, begin, locate, render each view (clear), end. Returns
+    (frame_state, located views)."""
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    _, views = xr.locate_views(
+        app.session,
+        xr.ViewLocateInfo(
+            view_configuration_type=STEREO,
+            display_time=state.predicted_display_time,
+            space=space,
+        ),
+    )
+    proj = []
+    for i, view in enumerate(views):
+        sc, images, size = chains[i]
+        index = xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
+        xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=xr.INFINITE_DURATION))
+        app.clear_image(images[index], size, *colours[i])
+        xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+        x, y, w, h = rects[i] if rects else (0, 0, *size)
+        proj.append(
+            xr.CompositionLayerProjectionView(
+                pose=view.pose,
+                fov=view.fov,
+                sub_image=xr.SwapchainSubImage(
+                    swapchain=sc,
+                    image_rect=xr.Rect2Di(offset=xr.Offset2Di(x, y), extent=xr.Extent2Di(w, h)),
+                ),
+            )
+        )
+    layer = xr.CompositionLayerProjection(space=space, views=proj)
+    xr.end_frame(
+        app.session,
+        xr.FrameEndInfo(
+            display_time=state.predicted_display_time,
+            environment_blend_mode=xr.EnvironmentBlendMode.OPAQUE,
+            layers=[ctypes.byref(layer)],
+        ),
+    )
+    return state, views
+
+
+def quat_rotate(q, v):
+    """Rotate v by the unit quaternion q = (x, y, z, w)."""
+    x, y, z, w = q
+    u = np.array([x, y, z])
+    v = np.asarray(v, dtype=float)
+    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
+
+
+def start_running(app, size=(96, 72), formats=(GL_SRGB8_ALPHA8, GL_SRGB8_ALPHA8)):
+    """Session begun, LOCAL space, one swapchain per eye."""
+    app.start()
+    app.poll()
+    app.begin()
+    space = app.space()
+    chains = []
+    for fmt in formats:
+        sc, images = app.swapchain(fmt, *size)
+        chains.append((sc, images, size))
+    return space, chains
+
+
+# ---------------------------------------------------------------------------------------------
+# building
+# ---------------------------------------------------------------------------------------------
+def test_runtime_builds_from_a_clean_dir_and_only_rebuilds_when_a_source_changes(tmp_path):
+    manifest = build_runtime(tmp_path / "clean")
+    library = tmp_path / "clean" / LIBRARY_NAME
+    import json
+
+    data = json.loads(manifest.read_text())
+    assert data["file_format_version"] == "1.0.0"
+    assert data["runtime"]["library_path"] == str(library)
+    assert os.path.isabs(data["runtime"]["library_path"])
+    built = library.stat().st_mtime_ns
+    time.sleep(0.01)
+    build_runtime(tmp_path / "clean")
+    assert library.stat().st_mtime_ns == built  # up to date: not recompiled
+    # a library older than the sources is rebuilt
+    os.utime(library, ns=(1, 1))
+    build_runtime(tmp_path / "clean")
+    assert library.stat().st_mtime_ns > 1
+
+
+def test_a_missing_compiler_or_header_is_named_with_its_apt_package(tmp_path, monkeypatch):
+    assert missing_tools() == []  # this machine has them (tools/check_system.sh)
+    headers = missing_tools(include_dir=tmp_path)
+    assert any("openxr_platform.h" in m and "libopenxr-dev" in m for m in headers)
+    assert any("EGL/egl.h" in m and "libegl-dev" in m for m in headers)
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))  # no cc on it
+    with pytest.raises(RuntimeBuildError, match=r"cc \(apt install gcc\)"):
+        build_runtime(tmp_path / "nocc")
+
+
+# ---------------------------------------------------------------------------------------------
+# instance, system, views
+# ---------------------------------------------------------------------------------------------
+def test_instance_system_and_views_follow_the_script(xr_runtime, app_factory):
+    xr_runtime.script(eye_size=[64, 48], display_period_s=0.02)
+    names = [e.extension_name.decode() for e in xr.enumerate_instance_extension_properties()]
+    assert set(EXTENSIONS) <= set(names)
+    app = app_factory()
+    props = xr.get_instance_properties(app.instance)
+    assert props.runtime_name.decode() == "BTF test runtime"
+    system = app.get_system()
+    sysprops = xr.get_system_properties(app.instance, system)
+    assert sysprops.tracking_properties.position_tracking
+    assert list(xr.enumerate_view_configurations(app.instance, system)) == [STEREO]
+    views = xr.enumerate_view_configuration_views(app.instance, system, STEREO)
+    assert len(views) == 2
+    for v in views:
+        assert (v.recommended_image_rect_width, v.recommended_image_rect_height) == (64, 48)
+        assert (v.max_image_rect_width, v.max_image_rect_height) == (256, 192)
+    modes = xr.enumerate_environment_blend_modes(app.instance, system, STEREO)
+    assert list(modes) == [xr.EnvironmentBlendMode.OPAQUE]
+    req = app.graphics_requirements()
+    assert req.min_api_version_supported.number() == xr.Version(3, 3, 0).number()
+    assert req.max_api_version_supported.number() == xr.Version(4, 6, 0).number()
+    path = xr.string_to_path(app.instance, "/user/hand/left")
+    assert xr.path_to_string(app.instance, path) == "/user/hand/left"
+
+
+def test_an_openxr_1_1_app_is_refused_by_this_1_0_runtime(xr_runtime, app_factory):
+    with pytest.raises(xr.ApiVersionUnsupportedError):
+        app_factory(api_version=xr.Version(1, 1, 0))
+
+
+# ---------------------------------------------------------------------------------------------
+# the session and the frame loop
+# ---------------------------------------------------------------------------------------------
+def test_two_frames_reach_focused_and_read_back_as_cleared_with_the_scripted_poses(
+    xr_runtime, app_factory
+):
+    s45 = float(np.sin(np.pi / 8))  # 45 degrees about y (half angle pi/8)
+    heads = [
+        [0.0, 1.6, 0.0, 0.0, 0.0, 0.0, 1.0],
+        [0.1, 1.5, -0.2, 0.0, s45, 0.0, float(np.cos(np.pi / 8))],
+    ]
+    ipd = 0.07
+    xr_runtime.script(head=heads, ipd=ipd)
+    app = app_factory()
+    space, chains = start_running(app, formats=(GL_SRGB8_ALPHA8, GL_RGBA16F))
+    colours = [
+        [((0.25, 0.5, 0.75, 1.0), (1.0, 0.0, 0.0, 1.0)), ((0.1, 0.2, 0.3, 1.0), (0, 1, 0, 1))],
+        [((0.6, 0.4, 0.2, 1.0), (0.0, 0.0, 1.0, 1.0)), ((0.9, 0.8, 0.7, 1.0), (0, 0, 0, 1))],
+    ]
+    located = []
+    states = []
+    for f in range(2):
+        state, views = submit_frame(app, space, chains, colours[f])
+        assert state.should_render
+        states.append(state)
+        located.append([(v.pose, v.fov) for v in views])
+    app.poll()
+    assert app.states[:5] == [S.IDLE, S.READY, S.SYNCHRONIZED, S.VISIBLE, S.FOCUSED]
+    period = states[1].predicted_display_time - states[0].predicted_display_time
+    assert period == states[0].predicted_display_period == 50_000_000  # default 0.05 s
+
+    frames = xr_runtime.captured()
+    assert [f.frame for f in frames] == [0, 1]
+    for f, frame in enumerate(frames):
+        assert frame.display_time == states[f].predicted_display_time
+        assert frame.space == "LOCAL"
+        assert len(frame.views) == 2
+        head_pos, head_q = np.array(heads[f][:3]), heads[f][3:]
+        for i, view in enumerate(frame.views):
+            assert view.image.shape == (72, 96, 4)
+            assert view.rect == (0, 0, 96, 72)
+            tol = SRGB8_TOL if view.format == GL_SRGB8_ALPHA8 else RGBA16F_TOL
+            colour, corner = colours[f][i]
+            # row 0 is the bottom: the bottom-left quarter holds the corner colour
+            np.testing.assert_allclose(
+                view.image[:36, :48], np.broadcast_to(corner, (36, 48, 4)), atol=tol
+            )
+            np.testing.assert_allclose(
+                view.image[36:, :], np.broadcast_to(colour, (36, 96, 4)), atol=tol
+            )
+            np.testing.assert_allclose(
+                view.image[:, 48:], np.broadcast_to(colour, (72, 48, 4)), atol=tol
+            )
+            # the pose/fov recorded are the submitted ones (= what xrLocateViews returned)
+            pose, fov = located[f][i]
+            sub = (
+                *[getattr(pose.position, a) for a in "xyz"],
+                *[getattr(pose.orientation, a) for a in "xyzw"],
+            )
+            np.testing.assert_allclose(view.pose, sub, atol=1e-6)
+            np.testing.assert_allclose(
+                view.fov, (fov.angle_left, fov.angle_right, fov.angle_up, fov.angle_down), atol=1e-6
+            )
+            # and they follow the head path: eye = head -/+ ipd/2 along the head's x axis
+            expected = head_pos + quat_rotate(head_q, [(-ipd / 2, ipd / 2)[i], 0.0, 0.0])
+            np.testing.assert_allclose(view.pose[:3], expected, atol=1e-5)  # float32 poses
+            np.testing.assert_allclose(view.pose[3:], head_q, atol=1e-6)
+            np.testing.assert_allclose(view.located_pose, view.pose, atol=1e-6)
+    # the default FOVs are asymmetric, the outer side wider
+    left, right = frames[0].views[0].fov, frames[0].views[1].fov
+    assert -left[0] > left[1] and right[1] > -right[0]
+    assert frames[0].views[0].encoding == "srgb"  # Mesa returns sRGB texels undecoded
+    assert frames[0].views[1].encoding == "linear"
+
+    # clean shutdown: the spec's sequence down to EXITING
+    xr.request_exit_session(app.session)
+    app.poll()
+    xr.end_session(app.session)
+    app.poll()
+    assert app.states[5:] == [S.VISIBLE, S.SYNCHRONIZED, S.STOPPING, S.IDLE, S.EXITING]
+
+
+def test_a_sub_image_rect_is_read_back_alone(xr_runtime, app_factory):
+    """Both eyes side by side in one swapchain, as apps that share an image do."""
+    xr_runtime.script(eye_size=[32, 24])
+    app = app_factory()
+    app.start()
+    app.poll()
+    app.begin()
+    space = app.space(xr.ReferenceSpaceType.STAGE)
+    sc, images = app.swapchain(GL_RGBA8, 64, 24)
+    chain = (sc, images, (64, 24))
+    # one image for both views: clear it once per frame, so both views see the second clear
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    _, views = xr.locate_views(
+        app.session,
+        xr.ViewLocateInfo(
+            view_configuration_type=STEREO, display_time=state.predicted_display_time, space=space
+        ),
+    )
+    index = xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
+    xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=xr.INFINITE_DURATION))
+    app.clear_image(images[index], (64, 24), (0.2, 0.4, 0.6, 1.0), (1.0, 1.0, 1.0, 1.0))
+    xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+    proj = [
+        xr.CompositionLayerProjectionView(
+            pose=v.pose,
+            fov=v.fov,
+            sub_image=xr.SwapchainSubImage(
+                swapchain=chain[0],
+                image_rect=xr.Rect2Di(offset=xr.Offset2Di(32 * i, 0), extent=xr.Extent2Di(32, 24)),
+            ),
+        )
+        for i, v in enumerate(views)
+    ]
+    layer = xr.CompositionLayerProjection(space=space, views=proj)
+    xr.end_frame(
+        app.session,
+        xr.FrameEndInfo(display_time=state.predicted_display_time, layers=[ctypes.byref(layer)]),
+    )
+    frame = xr_runtime.captured()[0]
+    assert frame.space == "STAGE"
+    left, right = frame.views
+    assert left.rect == (0, 0, 32, 24) and right.rect == (32, 0, 32, 24)
+    assert (left.width, left.height) == (64, 24)
+    # RGBA8: 0.5/255 quantisation; the white corner is the left view's bottom-left 32x12 only
+    np.testing.assert_allclose(left.image[:12, :], 1.0, atol=0.5 / 255 + 1e-6)
+    np.testing.assert_allclose(
+        left.image[12:, :, :3], np.broadcast_to((0.2, 0.4, 0.6), (12, 32, 3)), atol=0.5 / 255 + 1e-6
+    )
+    np.testing.assert_allclose(
+        right.image[..., :3], np.broadcast_to((0.2, 0.4, 0.6), (24, 32, 3)), atol=0.5 / 255 + 1e-6
+    )
+
+
+def test_the_app_context_need_not_be_current(xr_runtime, app_factory):
+    """XR_KHR_opengl_enable lets the app leave its context unbound during the graphics calls:
+    the runtime binds it itself and restores the thread's (empty) binding."""
+    app = app_factory()
+    app.start()
+    app.egl.release_current()
+    _, images = app.swapchain(GL_RGBA8, 16, 16)
+    assert len(images) == 3 and all(images)
+    assert app.egl.lib.eglGetCurrentContext() in (None, 0)
+    app.egl.make_current()
+
+
+def test_should_render_can_wait_for_visible_as_monado_does(xr_runtime, app_factory):
+    xr_runtime.script(should_render_from="visible")
+    app = app_factory()
+    start_running(app)
+    first = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    xr.end_frame(app.session, xr.FrameEndInfo(display_time=first.predicted_display_time))
+    second = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    assert not first.should_render and second.should_render
+    assert xr_runtime.captured() == []  # no projection layer, no capture
+
+
+# ---------------------------------------------------------------------------------------------
+# faults
+# ---------------------------------------------------------------------------------------------
+def test_no_system(xr_runtime, app_factory):
+    xr_runtime.script(system_available=False)
+    app = app_factory()
+    with pytest.raises(xr.FormFactorUnavailableError):
+        app.get_system()
+
+
+def test_an_extension_not_offered_is_refused(xr_runtime, app_factory, capfd):
+    xr_runtime.script(extensions=["XR_KHR_opengl_enable"])
+    names = [e.extension_name.decode() for e in xr.enumerate_instance_extension_properties()]
+    assert "XR_KHR_opengl_enable" in names and "XR_MNDX_egl_enable" not in names
+    with pytest.raises(xr.ExtensionNotPresentError):
+        app_factory()
+    # the real loader already refuses what the runtime does not enumerate (and says so)
+    assert "XR_MNDX_egl_enable" in capfd.readouterr().err
+    # without XR_MNDX_egl_enable an EGL session cannot be made
+    app = app_factory(extensions=["XR_KHR_opengl_enable"])
+    with pytest.raises(xr.GraphicsDeviceInvalidError):
+        app.start()
+
+
+def test_a_bad_script_fails_instance_creation_saying_why(xr_runtime, app_factory, capfd):
+    xr_runtime.script(eye_size=[64])
+    with pytest.raises(xr.RuntimeFailureError):
+        app_factory()
+    assert "eye_size must be [width, height]" in capfd.readouterr().err
+
+
+def test_another_view_count(xr_runtime, app_factory):
+    xr_runtime.script(views=3)
+    app = app_factory()
+    space, chains = start_running(app, formats=(GL_RGBA8,) * 2)
+    system_views = xr.enumerate_view_configuration_views(app.instance, app.system, STEREO)
+    assert len(system_views) == 3
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    _, views = xr.locate_views(
+        app.session,
+        xr.ViewLocateInfo(
+            view_configuration_type=STEREO, display_time=state.predicted_display_time, space=space
+        ),
+    )
+    assert len(views) == 3
+    # an app that assumes two views submits a layer the runtime refuses
+    with pytest.raises(xr.ValidationFailureError):
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        proj = [
+            xr.CompositionLayerProjectionView(
+                pose=views[i].pose,
+                fov=views[i].fov,
+                sub_image=xr.SwapchainSubImage(
+                    swapchain=chains[i][0], image_rect=xr.Rect2Di(extent=xr.Extent2Di(96, 72))
+                ),
+            )
+            for i in range(2)
+        ]
+        for sc, _, _ in chains:
+            xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
+            xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=xr.INFINITE_DURATION))
+            xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+        layer = xr.CompositionLayerProjection(space=space, views=proj)
+        xr.end_frame(
+            app.session,
+            xr.FrameEndInfo(
+                display_time=state.predicted_display_time, layers=[ctypes.byref(layer)]
+            ),
+        )
+
+
+def test_swapchain_formats_and_an_unoffered_format(xr_runtime, app_factory):
+    app = app_factory()
+    app.start()
+    assert list(xr.enumerate_swapchain_formats(app.session)) == [
+        GL_SRGB8_ALPHA8,
+        GL_RGBA8,
+        GL_RGBA16F,
+    ]
+    with pytest.raises(xr.SwapchainFormatUnsupportedError):
+        app.swapchain(GL_RGBA32F, 16, 16)
+
+
+def test_a_runtime_offering_only_formats_the_app_cannot_use(xr_runtime, app_factory):
+    xr_runtime.script(formats=[0x8059])  # GL_RGB10_A2
+    app = app_factory()
+    app.start()
+    assert list(xr.enumerate_swapchain_formats(app.session)) == [0x8059]
+    with pytest.raises(xr.SwapchainFormatUnsupportedError):
+        app.swapchain(GL_SRGB8_ALPHA8, 16, 16)
+
+
+def test_call_order_errors(xr_runtime, app_factory):
+    app = app_factory()
+    app.get_system()
+    # the graphics requirements must be asked for before the session
+    with pytest.raises(xr.GraphicsRequirementsCallMissingError):
+        app.start(requirements=False)
+    app.start()
+    with pytest.raises(xr.SessionNotRunningError):
+        xr.wait_frame(app.session, xr.FrameWaitInfo())
+    app.poll()
+    app.begin()
+    with pytest.raises(xr.SessionRunningError):
+        app.begin()
+    space = app.space()
+    sc, _ = app.swapchain(GL_RGBA8, 96, 72)
+    with pytest.raises(xr.CallOrderInvalidError):  # begin without wait
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+    with pytest.raises(xr.CallOrderInvalidError):  # end without begin
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=1))
+    with pytest.raises(xr.CallOrderInvalidError):  # wait image without acquire
+        xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=0))
+    with pytest.raises(xr.CallOrderInvalidError):  # release without acquire
+        xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+    assert xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo()) == 0
+    with pytest.raises(xr.CallOrderInvalidError):  # release without wait
+        xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    full = xr.Rect2Di(extent=xr.Extent2Di(96, 72))
+    view = xr.CompositionLayerProjectionView(
+        pose=xr.Posef(),
+        fov=xr.Fovf(-0.5, 0.5, 0.5, -0.5),
+        sub_image=xr.SwapchainSubImage(swapchain=sc, image_rect=full),
+    )
+    layer = xr.CompositionLayerProjection(space=space, views=[view, view])
+    end = xr.FrameEndInfo(display_time=state.predicted_display_time, layers=[ctypes.byref(layer)])
+    with pytest.raises(xr.LayerInvalidError):  # the swapchain has no released image yet
+        xr.end_frame(app.session, end)
+    xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=0))
+    xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+    view.sub_image.image_rect = xr.Rect2Di(offset=xr.Offset2Di(1, 0), extent=xr.Extent2Di(96, 72))
+    layer = xr.CompositionLayerProjection(space=space, views=[view, view])
+    with pytest.raises(xr.SwapchainRectInvalidError):
+        xr.end_frame(
+            app.session,
+            xr.FrameEndInfo(
+                display_time=state.predicted_display_time, layers=[ctypes.byref(layer)]
+            ),
+        )
+    # a begun frame that was never ended is discarded by the next xrBeginFrame
+    xr.wait_frame(app.session, xr.FrameWaitInfo())
+    with pytest.raises(xr.FrameDiscarded):
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+    with pytest.raises(xr.SessionNotStoppingError):
+        xr.end_session(app.session)
+
+
+def test_session_loss_after_the_scripted_frame_count(xr_runtime, app_factory, capfd):
+    xr_runtime.script(lose_session_after_frames=2)
+    app = app_factory()
+    space, chains = start_running(app, formats=(GL_RGBA8, GL_RGBA8))
+    colours = [((0.5, 0.5, 0.5, 1.0), (0.0, 0.0, 0.0, 1.0))] * 2
+    for _ in range(2):
+        submit_frame(app, space, chains, colours)
+    app.poll()
+    assert app.states[-1] == S.LOSS_PENDING
+    with pytest.raises(xr.SessionLostError):
+        xr.wait_frame(app.session, xr.FrameWaitInfo())
+    with pytest.raises(xr.SessionLostError):
+        xr.acquire_swapchain_image(chains[0][0], xr.SwapchainImageAcquireInfo())
+    assert "the session is lost after 2 frames" in capfd.readouterr().err
+    assert len(xr_runtime.captured()) == 2
+    # destroying a lost session (and its children) is allowed
+    xr.destroy_session(app.session)
+    app.session, app.swapchains, app.spaces = None, [], []
+
+
+def test_readback_decodes_srgb_exactly_as_gl_samples_it():
+    """The reader's decode is the IEC 61966-2-1 curve (0.5 encoded -> 0.214041 linear)."""
+    np.testing.assert_allclose(
+        srgb_to_linear(np.array([0.0, 0.04045, 0.5, 1.0])),
+        [0.0, 0.04045 / 12.92, 0.214041, 1.0],
+        atol=1e-6,
+    )
