@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..render.headsets import EyeFov
+from .bindings import egl_binding
 from .errors import (
     BridgeError,
     NoHeadsetError,
@@ -76,21 +77,6 @@ def _runtime_hint() -> str:
         "ActiveRuntime registry value); start your headset's runtime (SteamVR, Monado, the "
         "vendor's) and make it the active OpenXR runtime"
     )
-
-
-class GraphicsBindingEGLMNDX(ctypes.Structure):
-    """XrGraphicsBindingEGLMNDX (openxr_platform.h, XR_MNDX_egl_enable) with plain handles:
-    pyopenxr's own struct types the handles as PyOpenGL EGL pointers, which would tie this
-    module to PyOpenGL's platform choice; the C layout is the same."""
-
-    _fields_ = [
-        ("type", ctypes.c_int32),  # XR_TYPE_GRAPHICS_BINDING_EGL_MNDX
-        ("next", ctypes.c_void_p),
-        ("get_proc_address", ctypes.c_void_p),  # PFN_xrEglGetProcAddressMNDX
-        ("display", ctypes.c_void_p),  # EGLDisplay
-        ("config", ctypes.c_void_p),  # EGLConfig
-        ("context", ctypes.c_void_p),  # EGLContext
-    ]
 
 
 @dataclass
@@ -338,14 +324,7 @@ class XRSession:
                 f"the runtime needs OpenGL {low // 100}.{low % 100 // 10} or newer; this "
                 f"context has {ours // 100}.{ours % 100 // 10}"
             )
-        self._binding = GraphicsBindingEGLMNDX(
-            openxr.StructureType.GRAPHICS_BINDING_EGL_MNDX.value,
-            None,
-            self.egl.get_proc_address,
-            self.egl.display,
-            self.egl.config,
-            self.egl.context,
-        )
+        self._binding = egl_binding(self.egl)
         info = openxr.SessionCreateInfo(
             next=ctypes.cast(ctypes.pointer(self._binding), ctypes.c_void_p),
             system_id=self.system_id,
