@@ -406,12 +406,14 @@ class XRSession:
                 return
             except openxr.XrException as exc:
                 raise SessionLostError(f"xrPollEvent failed: {type(exc).__name__}") from None
-            kind = openxr.StructureType(event.type)
-            if kind == openxr.StructureType.EVENT_DATA_INSTANCE_LOSS_PENDING:
+            kind = int(
+                event._type
+            )  # the raw field: an extension's event may be unknown to the enum
+            if kind == openxr.StructureType.EVENT_DATA_INSTANCE_LOSS_PENDING.value:
                 raise SessionLostError(
                     f"the runtime {self.runtime_name!r} is going away (instance loss pending)"
                 )
-            if kind != openxr.StructureType.EVENT_DATA_SESSION_STATE_CHANGED:
+            if kind != openxr.StructureType.EVENT_DATA_SESSION_STATE_CHANGED.value:
                 continue
             changed = ctypes.cast(
                 ctypes.byref(event), ctypes.POINTER(openxr.EventDataSessionStateChanged)
@@ -461,7 +463,9 @@ class XRSession:
         (the framebuffer of the acquired image; the context is current; it returns the view it
         drew, or None for the located one), release → xrEndFrame with a projection layer
         carrying the drawn views' poses and FOVs, as the spec asks (no layer when
-        the runtime says not to render or the views are not tracked)."""
+        the runtime says not to render, the views are not tracked, or an exit was requested:
+        the spec wants the frame loop to go on until STOPPING, which may take frames, and
+        those frames carry no layer, so a run of N frames submits N images)."""
         openxr = self.xr
         state = self._call("xrWaitFrame", openxr.wait_frame, self.session)
         period_s = state.predicted_display_period / 1e9
@@ -477,7 +481,7 @@ class XRSession:
             self._call("xrBeginFrame", _reraise, sys.exc_info()[1])
         views: tuple[LocatedView, ...] = ()
         layers = []
-        if state.should_render:
+        if state.should_render and not self.exit_requested:
             views, layer = self._render(display_time, draw_eye)
             if layer is not None:
                 layers.append(ctypes.byref(layer))
