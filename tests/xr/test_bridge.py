@@ -330,3 +330,22 @@ def test_linear_swapchain_formats_get_linear_values(xr_runtime, rng, gl_ctx, fmt
     else:  # half float: 11 significant bits; one ulp (2^-10 ≈ 9.8e-4 relative) covers
         # rounding either way (llvmpipe's conversion truncates)
         assert np.allclose(view.image[..., :3], ours, rtol=2.0**-10, atol=1e-6)
+
+
+def test_the_hud_floats_below_the_view_in_both_eyes(xr_runtime, rng):
+    """With the HUD, each eye shows its panel below the centre (0.25 m under the eye line at
+    1.2 m: about 0.2 of the half-height down) and nothing changes in the top half."""
+    from btf_addon.xr.bridge import run_bridge
+
+    scene = small_scene(rng)
+    images = {}
+    for hud in (False, True):
+        script(xr_runtime, capture_dir=str(xr_runtime.dir / f"hud_{hud}"))
+        run_bridge(scene, RenderSettings(), settings(show_hud=hud), frames=2)
+        images[hud] = [encoded(v.image[..., :3]) for v in xr_runtime.captured()[-1].views]
+    h = EYE[1]
+    for plain, with_hud in zip(images[False], images[True], strict=True):
+        changed = np.abs(plain - with_hud).max(axis=-1) > SRGB_TOLERANCE
+        rows = np.nonzero(changed.any(axis=1))[0]  # row 0 at the bottom
+        assert len(rows) > 0, "no HUD drawn"
+        assert rows.max() < h // 2, "the HUD reached the top half"
