@@ -69,6 +69,8 @@ log = logging.getLogger(__name__)
 EYES = ("left", "right")
 HUD_REFRESH_S = 0.25  # re-rasterise the HUD's text 4× a second at most
 IDLE_WAIT_S = 0.005  # between polls while the session is not running yet
+START_TIMEOUT_S = 30.0  # run_bridge: no frame by then → the session never started
+STOP_TIMEOUT_S = 10.0  # run_bridge: the runtime never ended the session after the request
 # OpenXR's spaces are +y up, Blender's world +z up: (x, y, z) → (x, −z, y).
 ZUP_FROM_YUP = np.array(
     [[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]], dtype=np.float64
@@ -523,12 +525,28 @@ def run_bridge(
     subclasses."""
     bridge = XRBridge(scene, render_settings, settings, controls)
     bridge.start()
+    started, stop_asked = time.monotonic(), None
     try:
         while bridge.run_frame():
             for edit in bridge.pop_edits():  # nothing applies them here: logged (CLI -v)
                 log.info("controller: %s", edit)
-            if frames is not None and bridge.frames >= frames:
+            if frames is not None and bridge.frames >= frames and stop_asked is None:
                 bridge.request_stop()
+                stop_asked = time.monotonic()
+            now = time.monotonic()
+            if bridge.frames == 0 and now - started > START_TIMEOUT_S:
+                raise SessionLostError(
+                    f"the runtime {bridge.status.runtime!r} did not start the session within "
+                    f"{START_TIMEOUT_S:g} s (state {bridge.session.state}): is the headset "
+                    "awake and its display on?"
+                )
+            if stop_asked is not None and now - stop_asked > STOP_TIMEOUT_S:
+                log.warning(
+                    "the runtime did not end the session within %g s of the request; "
+                    "closing it anyway",
+                    STOP_TIMEOUT_S,
+                )
+                break
         return bridge.status
     finally:
         bridge.close()
