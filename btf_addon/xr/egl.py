@@ -117,10 +117,8 @@ class EGLContext:
         if not context:
             self._fail(f"eglCreateContext (OpenGL {major}.{minor} core)")
         self.context = context
-        self.get_proc_address = (
-            lib.eglGetProcAddress(b"eglGetProcAddress")
-            or ctypes.cast(lib.eglGetProcAddress, ctypes.c_void_p).value
-        )
+        # libEGL's exported eglGetProcAddress itself (the address, for the runtime to call).
+        self.get_proc_address = ctypes.cast(lib.eglGetProcAddress, ctypes.c_void_p).value
         self._ctx = None
         self.make_current()
 
