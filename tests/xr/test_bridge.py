@@ -351,3 +351,29 @@ def test_the_hud_floats_below_the_view_in_both_eyes(xr_runtime, rng):
         rows = np.nonzero(changed.any(axis=1))[0]  # row 0 at the bottom
         assert len(rows) > 0, "no HUD drawn"
         assert rows.max() < h // 2, "the HUD reached the top half"
+
+
+@pytest.mark.parametrize(("scale", "size"), [(0.5, (24, 18)), (10.0, (192, 144))])
+def test_resolution_scale_is_clamped_to_the_runtimes_maximum(xr_runtime, rng, scale, size):
+    """The test runtime recommends 48×36 and allows 4× that (192×144)."""
+    from btf_addon.xr.bridge import run_bridge
+
+    script(xr_runtime)
+    status = run_bridge(
+        small_scene(rng), RenderSettings(), settings(resolution_scale=scale, lights_total=1), 1
+    )
+    assert status.eye_size == size
+    assert xr_runtime.captured()[0].views[0].image.shape[:2] == (size[1], size[0])
+
+
+def test_the_space_is_placed_at_the_camera_facing_its_heading():
+    """A camera at (1, 2, 3) looking along +X, pitched down 30°: the head's first position
+    lands on it, the space's forward (−z) on +X, its up (+y) on +Z; pitch is not used."""
+    from btf_addon.xr.bridge import world_from_space
+
+    pitch = math.radians(30)
+    target = np.array([1.0 + math.cos(pitch), 2.0, 3.0 - math.sin(pitch)])
+    m = world_from_space(look_at((1.0, 2.0, 3.0), target), np.array([0.1, 1.6, -0.2]))
+    assert m @ [0.1, 1.6, -0.2, 1.0] == pytest.approx([1.0, 2.0, 3.0, 1.0])
+    assert m[:3, :3] @ [0.0, 0.0, -1.0] == pytest.approx([1.0, 0.0, 0.0])
+    assert m[:3, :3] @ [0.0, 1.0, 0.0] == pytest.approx([0.0, 0.0, 1.0])
