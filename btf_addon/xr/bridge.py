@@ -49,6 +49,7 @@ from .errors import (
     SessionLostError,
     UnsupportedRuntimeError,
 )
+from .views import GL_FRAMEBUFFER_SRGB
 
 __all__ = [
     "BridgeError",
@@ -346,14 +347,14 @@ class XRBridge:
         ctx = self.egl.ctx
         srgb = self.session.srgb
         if srgb:  # our output is linear: the hardware encodes into the sRGB image
-            ctx.enable_direct(0x8DB9)  # GL_FRAMEBUFFER_SRGB
+            ctx.enable_direct(GL_FRAMEBUFFER_SRGB)
         try:
             self.drawer.draw_resolved(view, self.settings.exposure)
             if self.settings.show_hud:
                 self._draw_hud(eye, index, view, clip_from_view)
         finally:
             if srgb:
-                ctx.disable_direct(0x8DB9)
+                ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
 
     def _draw_hud(self, eye: _Eye, index: int, view, clip_from_view) -> None:
         now = self.clock()
