@@ -116,6 +116,9 @@ def cmd_bridge(args) -> int:
     except BridgeError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except KeyboardInterrupt:  # Ctrl-C: the session and context were released on the way out
+        print("interrupted: the OpenXR session was closed", file=sys.stderr)
+        return 130
     fps = f"{status.fps:.1f}" if status.fps is not None else "n/a"
     w, h = status.eye_size
     print(f"runtime: {status.runtime}")
