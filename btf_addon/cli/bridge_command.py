@@ -28,7 +28,7 @@ and the runtime's name (docs/user-guide.md, "XTAL bridge and headless captures")
 
 Exit codes: 0 ok, 2 usage or scene errors, 3 no OpenXR runtime, 4 no headset, 5 session
 lost, 6 the runtime lacks what the bridge needs (two views, an OpenGL/EGL binding, a usable
-swapchain format).
+swapchain format), 130 interrupted (Ctrl-C).
 """
 
 
