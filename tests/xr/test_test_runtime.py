@@ -18,226 +18,47 @@ from xr_runtime.readback import srgb_to_linear
 
 xr = pytest.importorskip("xr", reason="pyopenxr is in requirements/common.txt")
 
-GL_SRGB8_ALPHA8, GL_RGBA8, GL_RGBA16F, GL_RGBA32F = 0x8C43, 0x8058, 0x881A, 0x8814
-GL_FRAMEBUFFER_SRGB = 0x8DB9
-EXTENSIONS = ["XR_KHR_opengl_enable", "XR_MNDX_egl_enable"]
-STEREO = xr.ViewConfigurationType.PRIMARY_STEREO
-S = State = xr.SessionState
+from xr_runtime.client import (  # noqa: E402
+    EXTENSIONS,
+    GL_RGBA8,
+    GL_RGBA16F,
+    GL_RGBA32F,
+    GL_SRGB8_ALPHA8,
+    STEREO,
+    App,
+    quat_rotate,
+    start_running,
+    submit_frame,
+)
+from xr_runtime.egl import EGLError  # noqa: E402
+
+S = xr.SessionState
 # sRGB8 stores 8 bits after encoding: half a step (0.5/255) in encoded units is at most
 # 0.5/255 * d(decode)/dv <= 0.5/255 * 2.4/1.055 * 1 ~= 0.0045 in linear units (slope max at 1).
 SRGB8_TOL = 0.005
 RGBA16F_TOL = 1e-3  # half floats: 11-bit mantissa, relative error 2^-11 ~ 5e-4 below 1.0
 
 
-# ---------------------------------------------------------------------------------------------
-# a minimal OpenXR GL app over pyopenxr
-# ---------------------------------------------------------------------------------------------
-class App:
-    """Instance + system; ``start()`` makes the EGL context and the session."""
-
-    def __init__(self, extensions=EXTENSIONS, api_version=None):
-        info = xr.ApplicationInfo(application_name="btf runtime test")
-        if api_version is not None:
-            info.api_version = api_version
-        self.instance = xr.create_instance(
-            xr.InstanceCreateInfo(application_info=info, enabled_extension_names=extensions)
-        )
-        self.system = None
-        self.session = None
-        self.egl = None
-        self.gl = None
-        self.spaces, self.swapchains, self.states = [], [], []
-
-    def get_system(self):
-        self.system = xr.get_system(
-            self.instance, xr.SystemGetInfo(form_factor=xr.FormFactor.HEAD_MOUNTED_DISPLAY)
-        )
-        return self.system
-
-    def graphics_requirements(self):
-        pfn = ctypes.cast(
-            xr.get_instance_proc_addr(self.instance, "xrGetOpenGLGraphicsRequirementsKHR"),
-            xr.PFN_xrGetOpenGLGraphicsRequirementsKHR,
-        )
-        req = xr.GraphicsRequirementsOpenGLKHR()
-        result = xr.check_result(xr.Result(pfn(self.instance, self.system, ctypes.byref(req))))
-        if result.is_exception():
-            raise result
-        return req
-
+class SkippingApp(App):
     def start(self, requirements=True):
-        """EGL context, then the session (binding chained in next)."""
-        from xr_runtime.egl import EGLError, ModernGLLoader, create_egl_context
-
-        if self.system is None:
-            self.get_system()
-        if requirements:
-            self.graphics_requirements()
-        if self.egl is None:
-            try:
-                self.egl = create_egl_context()
-            except EGLError as exc:
-                pytest.skip(f"no surfaceless EGL OpenGL here ({exc})")
-            import moderngl
-
-            self.gl = moderngl.create_context(require=330, context=ModernGLLoader(self.egl))
-        self._binding = self.egl.binding()  # kept alive: the runtime reads it in xrCreateSession
-        info = xr.SessionCreateInfo(
-            system_id=self.system,
-            next=ctypes.cast(ctypes.pointer(self._binding), ctypes.c_void_p),
-        )
-        self.session = xr.create_session(self.instance, info)
-        return self.session
-
-    def poll(self) -> list:
-        """Drain the event queue; session states are appended to self.states."""
-        events = []
-        while True:
-            try:
-                buf = xr.poll_event(self.instance)
-            except xr.EventUnavailable:
-                return events
-            if xr.StructureType(buf.type) == xr.StructureType.EVENT_DATA_SESSION_STATE_CHANGED:
-                ev = ctypes.cast(
-                    ctypes.byref(buf), ctypes.POINTER(xr.EventDataSessionStateChanged)
-                ).contents
-                self.states.append(xr.SessionState(ev.state))
-            events.append(buf.type)
-
-    def space(self, kind=xr.ReferenceSpaceType.LOCAL):
-        sp = xr.create_reference_space(
-            self.session, xr.ReferenceSpaceCreateInfo(reference_space_type=kind)
-        )
-        self.spaces.append(sp)
-        return sp
-
-    def swapchain(self, fmt, width, height):
-        sc = xr.create_swapchain(
-            self.session,
-            xr.SwapchainCreateInfo(
-                usage_flags=xr.SwapchainUsageFlags.COLOR_ATTACHMENT_BIT,
-                format=fmt,
-                sample_count=1,
-                width=width,
-                height=height,
-                face_count=1,
-                array_size=1,
-                mip_count=1,
-            ),
-        )
-        images = xr.enumerate_swapchain_images(sc, xr.SwapchainImageOpenGLKHR)
-        self.swapchains.append(sc)
-        return sc, [img.image for img in images]
-
-    def clear_image(self, texture, size, colour, corner_colour):
-        """Clear a swapchain texture to ``colour`` (linear), its bottom-left quarter to
-        ``corner_colour``; sRGB textures encode on write (GL_FRAMEBUFFER_SRGB)."""
-        tex = self.gl.external_texture(texture, size, 4, 0, "f1")
-        fbo = self.gl.framebuffer(color_attachments=[tex])
-        self.gl.enable_direct(GL_FRAMEBUFFER_SRGB)
-        fbo.clear(*colour)
-        fbo.clear(*corner_colour, viewport=(0, 0, size[0] // 2, size[1] // 2))
-        self.gl.finish()
-        fbo.release()
-
-    def begin(self, view_info: xr.ReferenceSpaceType = xr.ReferenceSpaceType.LOCAL):
-        xr.begin_session(self.session, xr.SessionBeginInfo(primary_view_configuration_type=STEREO))
-
-    def close(self):
-        for sc in self.swapchains:
-            try:
-                xr.destroy_swapchain(sc)
-            except xr.HandleInvalidError:
-                pass
-        for sp in self.spaces:
-            try:
-                xr.destroy_space(sp)
-            except xr.HandleInvalidError:
-                pass
-        if self.session is not None:
-            xr.destroy_session(self.session)
-        if self.gl is not None:
-            self.gl.release()
-        if self.egl is not None:
-            self.egl.destroy()
-        xr.destroy_instance(self.instance)
+        try:
+            return super().start(requirements)
+        except EGLError as exc:
+            pytest.skip(f"no surfaceless EGL OpenGL here ({exc})")
 
 
 @pytest.fixture
 def app_factory():
+    """Makes Apps; closes them (session, context, instance) after the test."""
     apps = []
 
     def make(**kwargs):
-        apps.append(App(**kwargs))
+        apps.append(SkippingApp(**kwargs))
         return apps[-1]
 
     yield make
     for app in apps:
         app.close()
-
-
-def submit_frame(app, space, chains, colours, rects=None):
-    """One full frame: wait, begin, locate, render each view (clear), end. Returns
-    (frame_state, located views)."""
-    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
-    xr.begin_frame(app.session, xr.FrameBeginInfo())
-    _, views = xr.locate_views(
-        app.session,
-        xr.ViewLocateInfo(
-            view_configuration_type=STEREO,
-            display_time=state.predicted_display_time,
-            space=space,
-        ),
-    )
-    proj = []
-    for i, view in enumerate(views):
-        sc, images, size = chains[i]
-        index = xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
-        xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=xr.INFINITE_DURATION))
-        app.clear_image(images[index], size, *colours[i])
-        xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
-        x, y, w, h = rects[i] if rects else (0, 0, *size)
-        proj.append(
-            xr.CompositionLayerProjectionView(
-                pose=view.pose,
-                fov=view.fov,
-                sub_image=xr.SwapchainSubImage(
-                    swapchain=sc,
-                    image_rect=xr.Rect2Di(offset=xr.Offset2Di(x, y), extent=xr.Extent2Di(w, h)),
-                ),
-            )
-        )
-    layer = xr.CompositionLayerProjection(space=space, views=proj)
-    xr.end_frame(
-        app.session,
-        xr.FrameEndInfo(
-            display_time=state.predicted_display_time,
-            environment_blend_mode=xr.EnvironmentBlendMode.OPAQUE,
-            layers=[ctypes.byref(layer)],
-        ),
-    )
-    return state, views
-
-
-def quat_rotate(q, v):
-    """Rotate v by the unit quaternion q = (x, y, z, w)."""
-    x, y, z, w = q
-    u = np.array([x, y, z])
-    v = np.asarray(v, dtype=float)
-    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
-
-
-def start_running(app, size=(96, 72), formats=(GL_SRGB8_ALPHA8, GL_SRGB8_ALPHA8)):
-    """Session begun, LOCAL space, one swapchain per eye."""
-    app.start()
-    app.poll()
-    app.begin()
-    space = app.space()
-    chains = []
-    for fmt in formats:
-        sc, images = app.swapchain(fmt, *size)
-        chains.append((sc, images, size))
-    return space, chains
 
 
 # ---------------------------------------------------------------------------------------------
@@ -260,6 +81,16 @@ def test_runtime_builds_from_a_clean_dir_and_only_rebuilds_when_a_source_changes
     os.utime(library, ns=(1, 1))
     build_runtime(tmp_path / "clean")
     assert library.stat().st_mtime_ns > 1
+
+
+def test_changed_compiler_flags_rebuild(tmp_path, monkeypatch):
+    library = build_runtime(tmp_path).parent / LIBRARY_NAME
+    os.utime(library, ns=(2**62, 2**62))  # newer than any source: up to date by time
+    build_runtime(tmp_path)
+    assert library.stat().st_mtime_ns == 2**62  # same flags: kept
+    monkeypatch.setenv("BTF_XR_RUNTIME_CFLAGS", "-DBTF_TEST_FLAG=1")
+    build_runtime(tmp_path)
+    assert library.stat().st_mtime_ns < 2**62  # new flags: rebuilt
 
 
 def test_a_missing_compiler_or_header_is_named_with_its_apt_package(tmp_path, monkeypatch):
@@ -342,6 +173,7 @@ def test_two_frames_reach_focused_and_read_back_as_cleared_with_the_scripted_pos
     for f, frame in enumerate(frames):
         assert frame.display_time == states[f].predicted_display_time
         assert frame.space == "LOCAL"
+        np.testing.assert_allclose(frame.head, heads[f], atol=1e-6)
         assert len(frame.views) == 2
         head_pos, head_q = np.array(heads[f][:3]), heads[f][3:]
         for i, view in enumerate(frame.views):
@@ -490,11 +322,21 @@ def test_an_extension_not_offered_is_refused(xr_runtime, app_factory, capfd):
         app.start()
 
 
-def test_a_bad_script_fails_instance_creation_saying_why(xr_runtime, app_factory, capfd):
-    xr_runtime.script(eye_size=[64])
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        ({"eye_size": [64]}, "eye_size must be [width, height]"),
+        ({"eye_sise": [64, 48]}, 'unknown key "eye_sise"'),
+        ({"head": [[0, 0, 0, 0, 0, 0, 0]]}, "head[0] has a zero quaternion"),
+    ],
+)
+def test_a_bad_script_fails_instance_creation_saying_why(
+    xr_runtime, app_factory, capfd, overrides, message
+):
+    xr_runtime.script(**overrides)
     with pytest.raises(xr.RuntimeFailureError):
         app_factory()
-    assert "eye_size must be [width, height]" in capfd.readouterr().err
+    assert message in capfd.readouterr().err
 
 
 def test_another_view_count(xr_runtime, app_factory):
@@ -642,3 +484,175 @@ def test_readback_decodes_srgb_exactly_as_gl_samples_it():
         [0.0, 0.04045 / 12.92, 0.214041, 1.0],
         atol=1e-6,
     )
+
+
+def test_quad_layers_are_accepted_beside_the_projection_and_not_captured(xr_runtime, app_factory):
+    app = app_factory()
+    space, chains = start_running(app, size=(32, 24), formats=(GL_RGBA8, GL_RGBA8))
+    hud, _ = app.swapchain(GL_RGBA8, 16, 8)
+    colours = [((0.5, 0.5, 0.5, 1.0), (0.0, 0.0, 0.0, 1.0))] * 2
+    submit_frame(app, space, chains, colours)  # releases an image of each eye swapchain
+    quad = xr.CompositionLayerQuad(
+        space=space,
+        pose=xr.Posef(position=xr.Vector3f(0, 0, -1)),
+        size=xr.Extent2Df(0.5, 0.25),
+        sub_image=xr.SwapchainSubImage(
+            swapchain=hud, image_rect=xr.Rect2Di(extent=xr.Extent2Di(16, 8))
+        ),
+    )
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    end = xr.FrameEndInfo(display_time=state.predicted_display_time, layers=[ctypes.byref(quad)])
+    with pytest.raises(xr.LayerInvalidError):  # the HUD swapchain was never released
+        xr.end_frame(app.session, end)
+    xr.acquire_swapchain_image(hud, xr.SwapchainImageAcquireInfo())
+    xr.wait_swapchain_image(hud, xr.SwapchainImageWaitInfo(timeout=0))
+    xr.release_swapchain_image(hud, xr.SwapchainImageReleaseInfo())
+    xr.end_frame(app.session, end)
+    assert len(xr_runtime.captured()) == 1  # only the frame with a projection layer
+
+
+def test_pace_blocks_wait_frame_to_the_display_period(xr_runtime, app_factory):
+    period = 0.03
+    xr_runtime.script(pace=True, display_period_s=period)
+    app = app_factory()
+    start_running(app, formats=())
+    start = time.monotonic()
+    for _ in range(4):
+        state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=state.predicted_display_time))
+    # frame k's slot opens at t0 + k * period: 4 frames span at least 3 periods (a lower bound
+    # only: a loaded machine may take longer, never shorter)
+    assert time.monotonic() - start >= 3 * period
+
+
+def test_end_frame_reads_the_app_context_while_another_is_current(xr_runtime, app_factory):
+    """The capture binds the session's context for its readback and gives the thread back the
+    context that was current (here a second one), as XR_KHR_opengl_enable requires."""
+    from xr_runtime.egl import create_egl_context
+
+    app = app_factory()
+    space, chains = start_running(app, size=(16, 8), formats=(GL_RGBA8, GL_RGBA8))
+    colours = [((0.0, 0.5, 1.0, 1.0), (1.0, 0.5, 0.0, 1.0))] * 2
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    proj = []
+    for sc, images, size in chains:
+        index = xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
+        xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=0))
+        app.clear_image(images[index], size, *colours[0])
+        xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+        rect = xr.Rect2Di(extent=xr.Extent2Di(*size))
+        proj.append(
+            xr.CompositionLayerProjectionView(
+                pose=xr.Posef(),
+                fov=xr.Fovf(-0.5, 0.5, 0.5, -0.5),
+                sub_image=xr.SwapchainSubImage(swapchain=sc, image_rect=rect),
+            )
+        )
+    other = create_egl_context()  # now current instead of the app's
+    try:
+        layer = xr.CompositionLayerProjection(space=space, views=proj)
+        xr.end_frame(
+            app.session,
+            xr.FrameEndInfo(
+                display_time=state.predicted_display_time, layers=[ctypes.byref(layer)]
+            ),
+        )
+        assert other.lib.eglGetCurrentContext() == other.context
+    finally:
+        other.destroy()
+        app.egl.make_current()
+    view = xr_runtime.captured()[0].views[0]
+    # RGBA8 quantisation: half a step, 0.5/255
+    np.testing.assert_allclose(view.image[-1, -1], colours[0][0], atol=0.5 / 255 + 1e-6)
+    np.testing.assert_allclose(view.image[0, 0], colours[0][1], atol=0.5 / 255 + 1e-6)
+
+
+def test_the_view_space_follows_the_head(xr_runtime, app_factory):
+    head = [0.3, 1.7, -0.5, 0.0, 0.0, float(np.sin(0.2)), float(np.cos(0.2))]
+    xr_runtime.script(head=[head])
+    app = app_factory()
+    local, _ = start_running(app, formats=())
+    view = app.space(xr.ReferenceSpaceType.VIEW)
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    loc = xr.locate_space(view, local, state.predicted_display_time)
+    assert loc.location_flags & xr.SpaceLocationFlags.POSITION_TRACKED_BIT
+    got = [*(getattr(loc.pose.position, a) for a in "xyz")]
+    got += [getattr(loc.pose.orientation, a) for a in "xyzw"]
+    np.testing.assert_allclose(got, head, atol=1e-6)  # float32 poses
+    # eyes located in VIEW space sit at -/+ ipd/2 on x, unrotated
+    _, views = xr.locate_views(
+        app.session,
+        xr.ViewLocateInfo(
+            view_configuration_type=STEREO, display_time=state.predicted_display_time, space=view
+        ),
+    )
+    for i, v in enumerate(views):
+        np.testing.assert_allclose(
+            [v.pose.position.x, v.pose.position.y, v.pose.position.z],
+            [(-0.0315, 0.0315)[i], 0.0, 0.0],
+            atol=1e-6,
+        )
+
+
+def test_wait_frame_may_run_on_another_thread(xr_runtime, app_factory):
+    """The pipelined pattern the spec allows: xrWaitFrame on one thread, begin/end on another."""
+    import threading
+
+    xr_runtime.script(pace=True, display_period_s=0.01)
+    app = app_factory()
+    start_running(app, formats=())
+    times = []
+    for _ in range(3):
+        states = []
+        waiter = threading.Thread(
+            target=lambda out=states: out.append(xr.wait_frame(app.session, xr.FrameWaitInfo()))
+        )
+        waiter.start()
+        app.poll()  # concurrently with the (pacing) wait
+        waiter.join(timeout=10)
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=states[0].predicted_display_time))
+        times.append(states[0].predicted_display_time)
+    assert np.diff(times).tolist() == [10_000_000, 10_000_000]
+
+
+def test_actions_exist_but_no_controller_is_ever_active(xr_runtime, app_factory):
+    app = app_factory()
+    space, chains = start_running(app, size=(16, 8), formats=(GL_RGBA8, GL_RGBA8))
+    action_set = xr.create_action_set(
+        app.instance,
+        xr.ActionSetCreateInfo(action_set_name="btf", localized_action_set_name="BTF", priority=0),
+    )
+    select = xr.create_action(
+        action_set,
+        xr.ActionCreateInfo(
+            action_type=xr.ActionType.BOOLEAN_INPUT,
+            action_name="select",
+            localized_action_name="Select",
+        ),
+    )
+    profile = xr.string_to_path(app.instance, "/interaction_profiles/khr/simple_controller")
+    binding = xr.string_to_path(app.instance, "/user/hand/right/input/select/click")
+    xr.suggest_interaction_profile_bindings(
+        app.instance,
+        xr.InteractionProfileSuggestedBinding(
+            interaction_profile=profile,
+            suggested_bindings=[xr.ActionSuggestedBinding(select, binding)],
+        ),
+    )
+    xr.attach_session_action_sets(
+        app.session, xr.SessionActionSetsAttachInfo(action_sets=[action_set])
+    )
+    sync = xr.ActionsSyncInfo(active_action_sets=[xr.ActiveActionSet(action_set, 0)])
+    with pytest.raises(xr.SessionNotFocused):  # a qualified success before FOCUSED
+        xr.sync_actions(app.session, sync)
+    submit_frame(app, space, chains, [((0, 0, 0, 1), (0, 0, 0, 1))] * 2)  # -> FOCUSED
+    xr.sync_actions(app.session, sync)
+    state = xr.get_action_state_boolean(app.session, xr.ActionStateGetInfo(action=select))
+    assert not state.is_active and not state.current_state
+    xr.destroy_action_set(action_set)  # its actions go with it
+    with pytest.raises(xr.HandleInvalidError):
+        xr.get_action_state_boolean(app.session, xr.ActionStateGetInfo(action=select))

@@ -1,6 +1,7 @@
 /* The BTF test OpenXR runtime: loader negotiation, dispatch, instance, system, view
  * configurations, paths and strings. Sessions and frames: rt_session.c; OpenGL swapchains and the
  * capture: rt_swapchain.c; actions: rt_actions.c; the control script: rt_config.c. */
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,14 +46,38 @@ typedef struct XrNegotiateRuntimeRequest {
     PFN_xrGetInstanceProcAddr getInstanceProcAddr;
 } XrNegotiateRuntimeRequest;
 
-/* ---- logging, time, handles ---- */
+/* ---- the lock, logging, time, handles ---- */
+static pthread_mutex_t lock;
+static pthread_once_t lock_once = PTHREAD_ONCE_INIT;
+
+static void lock_init(void) {
+    pthread_mutexattr_t attr;
+    pthread_mutexattr_init(&attr);
+    pthread_mutexattr_settype(&attr, PTHREAD_MUTEX_RECURSIVE);
+    pthread_mutex_init(&lock, &attr);
+}
+
+int rt_lock_acquire(void) {
+    pthread_once(&lock_once, lock_init);
+    pthread_mutex_lock(&lock);
+    return 0;
+}
+
+void rt_lock_release(int *unused) {
+    (void)unused;
+    pthread_mutex_unlock(&lock);
+}
+
+/* the case lists come from openxr_reflection.h */
 const char *rt_result_name(XrResult r) {
+    // clang-format off
     switch (r) {
 #define RT_CASE(name, value) case name: return #name;
         XR_LIST_ENUM_XrResult(RT_CASE)
 #undef RT_CASE
     default: return "XR_UNKNOWN_RESULT";
     }
+    // clang-format on
 }
 
 XrResult rt_refuse(XrResult result, const char *func, const char *fmt, ...) {
@@ -107,19 +132,20 @@ rt_simple *rt_handle_find_child(rt_kind kind, const void *owner) {
     return NULL;
 }
 
-#define GET_INSTANCE(var, handle, func)                                                    \
-    rt_instance *var = rt_handle_get((handle), RT_INSTANCE);                               \
+#define GET_INSTANCE(var, handle, func)                      \
+    rt_instance *var = rt_handle_get((handle), RT_INSTANCE); \
     if (!var) return rt_refuse(XR_ERROR_HANDLE_INVALID, func, "not a live XrInstance")
 
 /* the two-call idiom: capacity 0 asks for the count */
-#define TWO_CALL(func, capacity, count_out, count)                                          \
-    do {                                                                                    \
-        if (!(count_out)) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, func, "count output is NULL"); \
-        *(count_out) = (uint32_t)(count);                                                   \
-        if ((capacity) == 0) return XR_SUCCESS;                                             \
-        if ((capacity) < (uint32_t)(count))                                                 \
-            return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, func, "capacity %u < %u",          \
-                             (unsigned)(capacity), (unsigned)(count));                      \
+#define TWO_CALL(func, capacity, count_out, count)                                       \
+    do {                                                                                 \
+        if (!(count_out))                                                                \
+            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, func, "count output is NULL"); \
+        *(count_out) = (uint32_t)(count);                                                \
+        if ((capacity) == 0) return XR_SUCCESS;                                          \
+        if ((capacity) < (uint32_t)(count))                                              \
+            return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, func, "capacity %u < %u",       \
+                             (unsigned)(capacity), (unsigned)(count));                   \
     } while (0)
 
 static int offered(const rt_config *cfg, const char *name) {
@@ -134,11 +160,15 @@ static int known_extension(const char *name) {
 }
 
 /* ---- instance ---- */
-static XrResult XRAPI_CALL rt_EnumerateInstanceExtensionProperties(
-    const char *layerName, uint32_t capacity, uint32_t *countOutput, XrExtensionProperties *props) {
+static XrResult XRAPI_CALL rt_EnumerateInstanceExtensionProperties(const char *layerName,
+                                                                   uint32_t capacity,
+                                                                   uint32_t *countOutput,
+                                                                   XrExtensionProperties *props) {
+    RT_LOCKED;
     const char *F = "xrEnumerateInstanceExtensionProperties";
     if (layerName && *layerName)
-        return rt_refuse(XR_ERROR_API_LAYER_NOT_PRESENT, F, "this runtime has no layer %s", layerName);
+        return rt_refuse(XR_ERROR_API_LAYER_NOT_PRESENT, F, "this runtime has no layer %s",
+                         layerName);
     rt_config cfg;
     if (rt_config_load(&cfg)) {
         /* offer what the runtime implements so that xrCreateInstance is reached and fails
@@ -155,7 +185,8 @@ static XrResult XRAPI_CALL rt_EnumerateInstanceExtensionProperties(
     TWO_CALL(F, capacity, countOutput, n);
     for (int i = 0; i < n; i++) {
         if (props[i].type != XR_TYPE_EXTENSION_PROPERTIES)
-            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "props[%d].type is not XR_TYPE_EXTENSION_PROPERTIES", i);
+            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F,
+                             "props[%d].type is not XR_TYPE_EXTENSION_PROPERTIES", i);
         strcpy(props[i].extensionName, names[i]);
         props[i].extensionVersion = !strcmp(names[i], XR_KHR_OPENGL_ENABLE_EXTENSION_NAME)
                                         ? XR_KHR_opengl_enable_SPEC_VERSION
@@ -166,6 +197,7 @@ static XrResult XRAPI_CALL rt_EnumerateInstanceExtensionProperties(
 
 static XrResult XRAPI_CALL rt_EnumerateApiLayerProperties(uint32_t capacity, uint32_t *countOutput,
                                                           XrApiLayerProperties *props) {
+    RT_LOCKED;
     (void)props;
     if (!countOutput) return XR_ERROR_VALIDATION_FAILURE;
     *countOutput = 0; /* no layers: the loader answers this itself anyway */
@@ -174,6 +206,7 @@ static XrResult XRAPI_CALL rt_EnumerateApiLayerProperties(uint32_t capacity, uin
 }
 
 static XrResult XRAPI_CALL rt_CreateInstance(const XrInstanceCreateInfo *info, XrInstance *out) {
+    RT_LOCKED;
     const char *F = "xrCreateInstance";
     RT_CHECK_TYPE(info, XR_TYPE_INSTANCE_CREATE_INFO, F);
     if (!out) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "instance output is NULL");
@@ -210,9 +243,14 @@ static XrResult XRAPI_CALL rt_CreateInstance(const XrInstanceCreateInfo *info, X
 }
 
 static XrResult XRAPI_CALL rt_DestroyInstance(XrInstance instance) {
+    RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrDestroyInstance");
     if (inst->session) rt_session_free(inst->session);
-    for (int i = 0; i < inst->path_count; i++) free(inst->paths[i]);
+    rt_simple *set; /* action sets (and their actions) are the instance's children */
+    while ((set = rt_handle_find_child(RT_ACTION_SET, inst)))
+        rt_action_set_free(set);
+    for (int i = 0; i < inst->path_count; i++)
+        free(inst->paths[i]);
     free(inst->paths);
     rt_config_free(&inst->cfg);
     rt_handle_remove(inst);
@@ -221,6 +259,7 @@ static XrResult XRAPI_CALL rt_DestroyInstance(XrInstance instance) {
 }
 
 static XrResult XRAPI_CALL rt_GetInstanceProperties(XrInstance instance, XrInstanceProperties *p) {
+    RT_LOCKED;
     const char *F = "xrGetInstanceProperties";
     GET_INSTANCE(inst, instance, F);
     RT_CHECK_TYPE(p, XR_TYPE_INSTANCE_PROPERTIES, F);
@@ -231,10 +270,12 @@ static XrResult XRAPI_CALL rt_GetInstanceProperties(XrInstance instance, XrInsta
 
 static XrResult XRAPI_CALL rt_ResultToString(XrInstance instance, XrResult value,
                                              char buffer[XR_MAX_RESULT_STRING_SIZE]) {
+    RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrResultToString");
     const char *name = rt_result_name(value);
     if (!strcmp(name, "XR_UNKNOWN_RESULT"))
-        snprintf(buffer, XR_MAX_RESULT_STRING_SIZE, value >= 0 ? "XR_UNKNOWN_SUCCESS_%d" : "XR_UNKNOWN_FAILURE_%d", (int)value);
+        snprintf(buffer, XR_MAX_RESULT_STRING_SIZE,
+                 value >= 0 ? "XR_UNKNOWN_SUCCESS_%d" : "XR_UNKNOWN_FAILURE_%d", (int)value);
     else
         snprintf(buffer, XR_MAX_RESULT_STRING_SIZE, "%s", name);
     return XR_SUCCESS;
@@ -242,20 +283,26 @@ static XrResult XRAPI_CALL rt_ResultToString(XrInstance instance, XrResult value
 
 static XrResult XRAPI_CALL rt_StructureTypeToString(XrInstance instance, XrStructureType value,
                                                     char buffer[XR_MAX_STRUCTURE_NAME_SIZE]) {
+    RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrStructureTypeToString");
     const char *name = NULL;
+    // clang-format off
     switch (value) {
 #define RT_CASE(n, v) case n: name = #n; break;
         XR_LIST_ENUM_XrStructureType(RT_CASE)
 #undef RT_CASE
     default: break;
     }
-    if (name) snprintf(buffer, XR_MAX_STRUCTURE_NAME_SIZE, "%s", name);
-    else snprintf(buffer, XR_MAX_STRUCTURE_NAME_SIZE, "XR_UNKNOWN_STRUCTURE_TYPE_%d", (int)value);
+    // clang-format on
+    if (name)
+        snprintf(buffer, XR_MAX_STRUCTURE_NAME_SIZE, "%s", name);
+    else
+        snprintf(buffer, XR_MAX_STRUCTURE_NAME_SIZE, "XR_UNKNOWN_STRUCTURE_TYPE_%d", (int)value);
     return XR_SUCCESS;
 }
 
 static XrResult XRAPI_CALL rt_PollEvent(XrInstance instance, XrEventDataBuffer *event) {
+    RT_LOCKED;
     const char *F = "xrPollEvent";
     GET_INSTANCE(inst, instance, F);
     RT_CHECK_TYPE(event, XR_TYPE_EVENT_DATA_BUFFER, F);
@@ -267,30 +314,37 @@ static XrResult XRAPI_CALL rt_PollEvent(XrInstance instance, XrEventDataBuffer *
 }
 
 /* ---- system and view configurations ---- */
-#define CHECK_SYSTEM(inst, id, func)                                                           \
-    do {                                                                                       \
-        if ((id) != RT_SYSTEM_ID || !(inst)->cfg.system_available)                             \
-            return rt_refuse(XR_ERROR_SYSTEM_INVALID, func, "systemId %llu is not this runtime's HMD", \
-                             (unsigned long long)(id));                                        \
+#define CHECK_SYSTEM(inst, id, func)                                                               \
+    do {                                                                                           \
+        if ((id) != RT_SYSTEM_ID || !(inst)->cfg.system_available)                                 \
+            return rt_refuse(XR_ERROR_SYSTEM_INVALID, func,                                        \
+                             "systemId %llu is not this runtime's HMD", (unsigned long long)(id)); \
     } while (0)
 
-static XrResult XRAPI_CALL rt_GetSystem(XrInstance instance, const XrSystemGetInfo *info, XrSystemId *id) {
+static XrResult XRAPI_CALL rt_GetSystem(XrInstance instance, const XrSystemGetInfo *info,
+                                        XrSystemId *id) {
+    RT_LOCKED;
     const char *F = "xrGetSystem";
     GET_INSTANCE(inst, instance, F);
     RT_CHECK_TYPE(info, XR_TYPE_SYSTEM_GET_INFO, F);
     if (info->formFactor != XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY &&
         info->formFactor != XR_FORM_FACTOR_HANDHELD_DISPLAY)
-        return rt_refuse(XR_ERROR_FORM_FACTOR_UNSUPPORTED, F, "form factor %d is not defined", (int)info->formFactor);
+        return rt_refuse(XR_ERROR_FORM_FACTOR_UNSUPPORTED, F, "form factor %d is not defined",
+                         (int)info->formFactor);
     if (info->formFactor != XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY)
-        return rt_refuse(XR_ERROR_FORM_FACTOR_UNSUPPORTED, F, "this runtime has only a head-mounted display");
+        return rt_refuse(XR_ERROR_FORM_FACTOR_UNSUPPORTED, F,
+                         "this runtime has only a head-mounted display");
     if (!inst->cfg.system_available)
-        return rt_refuse(XR_ERROR_FORM_FACTOR_UNAVAILABLE, F,
-                         "the head-mounted display is not connected (script: system_available false)");
+        return rt_refuse(
+            XR_ERROR_FORM_FACTOR_UNAVAILABLE, F,
+            "the head-mounted display is not connected (script: system_available false)");
     *id = RT_SYSTEM_ID;
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_GetSystemProperties(XrInstance instance, XrSystemId id, XrSystemProperties *p) {
+static XrResult XRAPI_CALL rt_GetSystemProperties(XrInstance instance, XrSystemId id,
+                                                  XrSystemProperties *p) {
+    RT_LOCKED;
     const char *F = "xrGetSystemProperties";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -306,8 +360,10 @@ static XrResult XRAPI_CALL rt_GetSystemProperties(XrInstance instance, XrSystemI
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_EnumerateViewConfigurations(XrInstance instance, XrSystemId id, uint32_t capacity,
-                                                         uint32_t *countOutput, XrViewConfigurationType *types) {
+static XrResult XRAPI_CALL rt_EnumerateViewConfigurations(XrInstance instance, XrSystemId id,
+                                                          uint32_t capacity, uint32_t *countOutput,
+                                                          XrViewConfigurationType *types) {
+    RT_LOCKED;
     const char *F = "xrEnumerateViewConfigurations";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -316,16 +372,17 @@ static XrResult XRAPI_CALL rt_EnumerateViewConfigurations(XrInstance instance, X
     return XR_SUCCESS;
 }
 
-#define CHECK_VIEW_CONFIG(type, func)                                                          \
-    do {                                                                                       \
-        if ((type) != XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO)                               \
-            return rt_refuse(XR_ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED, func,               \
-                             "view configuration %d (only PRIMARY_STEREO)", (int)(type));      \
+#define CHECK_VIEW_CONFIG(type, func)                                                     \
+    do {                                                                                  \
+        if ((type) != XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO)                          \
+            return rt_refuse(XR_ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED, func,          \
+                             "view configuration %d (only PRIMARY_STEREO)", (int)(type)); \
     } while (0)
 
 static XrResult XRAPI_CALL rt_GetViewConfigurationProperties(XrInstance instance, XrSystemId id,
-                                                            XrViewConfigurationType type,
-                                                            XrViewConfigurationProperties *p) {
+                                                             XrViewConfigurationType type,
+                                                             XrViewConfigurationProperties *p) {
+    RT_LOCKED;
     const char *F = "xrGetViewConfigurationProperties";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -337,8 +394,11 @@ static XrResult XRAPI_CALL rt_GetViewConfigurationProperties(XrInstance instance
 }
 
 static XrResult XRAPI_CALL rt_EnumerateViewConfigurationViews(XrInstance instance, XrSystemId id,
-                                                             XrViewConfigurationType type, uint32_t capacity,
-                                                             uint32_t *countOutput, XrViewConfigurationView *views) {
+                                                              XrViewConfigurationType type,
+                                                              uint32_t capacity,
+                                                              uint32_t *countOutput,
+                                                              XrViewConfigurationView *views) {
+    RT_LOCKED;
     const char *F = "xrEnumerateViewConfigurationViews";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -357,8 +417,11 @@ static XrResult XRAPI_CALL rt_EnumerateViewConfigurationViews(XrInstance instanc
 }
 
 static XrResult XRAPI_CALL rt_EnumerateEnvironmentBlendModes(XrInstance instance, XrSystemId id,
-                                                            XrViewConfigurationType type, uint32_t capacity,
-                                                            uint32_t *countOutput, XrEnvironmentBlendMode *modes) {
+                                                             XrViewConfigurationType type,
+                                                             uint32_t capacity,
+                                                             uint32_t *countOutput,
+                                                             XrEnvironmentBlendMode *modes) {
+    RT_LOCKED;
     const char *F = "xrEnumerateEnvironmentBlendModes";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -368,8 +431,9 @@ static XrResult XRAPI_CALL rt_EnumerateEnvironmentBlendModes(XrInstance instance
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_GetOpenGLGraphicsRequirementsKHR(XrInstance instance, XrSystemId id,
-                                                              XrGraphicsRequirementsOpenGLKHR *req) {
+static XrResult XRAPI_CALL rt_GetOpenGLGraphicsRequirementsKHR(
+    XrInstance instance, XrSystemId id, XrGraphicsRequirementsOpenGLKHR *req) {
+    RT_LOCKED;
     const char *F = "xrGetOpenGLGraphicsRequirementsKHR";
     GET_INSTANCE(inst, instance, F);
     CHECK_SYSTEM(inst, id, F);
@@ -388,17 +452,20 @@ static int path_format_ok(const char *s) {
     for (size_t i = 1; i < n; i++) {
         char c = s[i];
         if (c == '/' && s[i - 1] == '/') return 0;
-        if (!(c == '/' || c == '-' || c == '_' || c == '.' || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9')))
+        if (!(c == '/' || c == '-' || c == '_' || c == '.' || (c >= 'a' && c <= 'z') ||
+              (c >= '0' && c <= '9')))
             return 0;
     }
     return 1;
 }
 
 static XrResult XRAPI_CALL rt_StringToPath(XrInstance instance, const char *str, XrPath *path) {
+    RT_LOCKED;
     const char *F = "xrStringToPath";
     GET_INSTANCE(inst, instance, F);
     if (!str || !path) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "NULL argument");
-    if (!path_format_ok(str)) return rt_refuse(XR_ERROR_PATH_FORMAT_INVALID, F, "%s is not a well-formed path", str);
+    if (!path_format_ok(str))
+        return rt_refuse(XR_ERROR_PATH_FORMAT_INVALID, F, "%s is not a well-formed path", str);
     for (int i = 0; i < inst->path_count; i++)
         if (!strcmp(inst->paths[i], str)) {
             *path = (XrPath)(i + 1);
@@ -415,10 +482,12 @@ static XrResult XRAPI_CALL rt_StringToPath(XrInstance instance, const char *str,
 
 static XrResult XRAPI_CALL rt_PathToString(XrInstance instance, XrPath path, uint32_t capacity,
                                            uint32_t *countOutput, char *buffer) {
+    RT_LOCKED;
     const char *F = "xrPathToString";
     GET_INSTANCE(inst, instance, F);
     if (path == XR_NULL_PATH || path > (XrPath)inst->path_count)
-        return rt_refuse(XR_ERROR_PATH_INVALID, F, "path %llu was not made by xrStringToPath", (unsigned long long)path);
+        return rt_refuse(XR_ERROR_PATH_INVALID, F, "path %llu was not made by xrStringToPath",
+                         (unsigned long long)path);
     const char *s = inst->paths[path - 1];
     TWO_CALL(F, capacity, countOutput, strlen(s) + 1);
     memcpy(buffer, s, strlen(s) + 1);
@@ -436,12 +505,15 @@ static const rt_entry instance_entries[] = {
     {"xrGetSystemProperties", (PFN_xrVoidFunction)rt_GetSystemProperties, 0},
     {"xrEnumerateViewConfigurations", (PFN_xrVoidFunction)rt_EnumerateViewConfigurations, 0},
     {"xrGetViewConfigurationProperties", (PFN_xrVoidFunction)rt_GetViewConfigurationProperties, 0},
-    {"xrEnumerateViewConfigurationViews", (PFN_xrVoidFunction)rt_EnumerateViewConfigurationViews, 0},
+    {"xrEnumerateViewConfigurationViews", (PFN_xrVoidFunction)rt_EnumerateViewConfigurationViews,
+     0},
     {"xrEnumerateEnvironmentBlendModes", (PFN_xrVoidFunction)rt_EnumerateEnvironmentBlendModes, 0},
-    {"xrGetOpenGLGraphicsRequirementsKHR", (PFN_xrVoidFunction)rt_GetOpenGLGraphicsRequirementsKHR, RT_NEEDS_OPENGL},
+    {"xrGetOpenGLGraphicsRequirementsKHR", (PFN_xrVoidFunction)rt_GetOpenGLGraphicsRequirementsKHR,
+     RT_NEEDS_OPENGL},
     {"xrStringToPath", (PFN_xrVoidFunction)rt_StringToPath, 0},
     {"xrPathToString", (PFN_xrVoidFunction)rt_PathToString, 0},
-    {"xrEnumerateInstanceExtensionProperties", (PFN_xrVoidFunction)rt_EnumerateInstanceExtensionProperties, 0},
+    {"xrEnumerateInstanceExtensionProperties",
+     (PFN_xrVoidFunction)rt_EnumerateInstanceExtensionProperties, 0},
     {"xrEnumerateApiLayerProperties", (PFN_xrVoidFunction)rt_EnumerateApiLayerProperties, 0},
     {"xrCreateInstance", (PFN_xrVoidFunction)rt_CreateInstance, 0},
     {NULL, NULL, 0},
@@ -449,6 +521,7 @@ static const rt_entry instance_entries[] = {
 
 static XrResult XRAPI_CALL rt_GetInstanceProcAddr(XrInstance instance, const char *name,
                                                   PFN_xrVoidFunction *function) {
+    RT_LOCKED;
     const char *F = "xrGetInstanceProcAddr";
     if (!name || !function) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "NULL argument");
     *function = NULL;
@@ -472,12 +545,14 @@ static XrResult XRAPI_CALL rt_GetInstanceProcAddr(XrInstance instance, const cha
         *function = (PFN_xrVoidFunction)rt_GetInstanceProcAddr;
         return XR_SUCCESS;
     }
-    const rt_entry *tables[] = {instance_entries, rt_session_entries, rt_swapchain_entries, rt_action_entries};
+    const rt_entry *tables[] = {instance_entries, rt_session_entries, rt_swapchain_entries,
+                                rt_action_entries};
     for (size_t t = 0; t < sizeof tables / sizeof *tables; t++)
         for (const rt_entry *e = tables[t]; e->name; e++) {
             if (strcmp(e->name, name)) continue;
             /* an extension's functions exist only when the extension was enabled */
-            if ((e->needs & RT_NEEDS_OPENGL) && !inst->ext_opengl) return XR_ERROR_FUNCTION_UNSUPPORTED;
+            if ((e->needs & RT_NEEDS_OPENGL) && !inst->ext_opengl)
+                return XR_ERROR_FUNCTION_UNSUPPORTED;
             if ((e->needs & RT_NEEDS_EGL) && !inst->ext_egl) return XR_ERROR_FUNCTION_UNSUPPORTED;
             *function = e->fn;
             return XR_SUCCESS;
@@ -489,7 +564,8 @@ static XrResult XRAPI_CALL rt_GetInstanceProcAddr(XrInstance instance, const cha
 RT_EXPORT XrResult xrNegotiateLoaderRuntimeInterface(const XrNegotiateLoaderInfo *loaderInfo,
                                                      XrNegotiateRuntimeRequest *request) {
     const char *F = "xrNegotiateLoaderRuntimeInterface";
-    if (!loaderInfo || !request || loaderInfo->structType != XR_LOADER_INTERFACE_STRUCT_LOADER_INFO ||
+    if (!loaderInfo || !request ||
+        loaderInfo->structType != XR_LOADER_INTERFACE_STRUCT_LOADER_INFO ||
         loaderInfo->structVersion != XR_LOADER_INFO_STRUCT_VERSION ||
         loaderInfo->structSize != sizeof(XrNegotiateLoaderInfo) ||
         request->structType != XR_LOADER_INTERFACE_STRUCT_RUNTIME_REQUEST ||
@@ -498,10 +574,13 @@ RT_EXPORT XrResult xrNegotiateLoaderRuntimeInterface(const XrNegotiateLoaderInfo
         return rt_refuse(XR_ERROR_INITIALIZATION_FAILED, F, "unexpected negotiation structs");
     if (loaderInfo->minInterfaceVersion > XR_CURRENT_LOADER_RUNTIME_VERSION ||
         loaderInfo->maxInterfaceVersion < XR_CURRENT_LOADER_RUNTIME_VERSION)
-        return rt_refuse(XR_ERROR_INITIALIZATION_FAILED, F, "loader interface %u..%u excludes version 1",
+        return rt_refuse(XR_ERROR_INITIALIZATION_FAILED, F,
+                         "loader interface %u..%u excludes version 1",
                          loaderInfo->minInterfaceVersion, loaderInfo->maxInterfaceVersion);
-    if (loaderInfo->minApiVersion > RT_API_VERSION || loaderInfo->maxApiVersion < XR_MAKE_VERSION(1, 0, 0))
-        return rt_refuse(XR_ERROR_INITIALIZATION_FAILED, F, "the loader's API range excludes OpenXR 1.0");
+    if (loaderInfo->minApiVersion > RT_API_VERSION ||
+        loaderInfo->maxApiVersion < XR_MAKE_VERSION(1, 0, 0))
+        return rt_refuse(XR_ERROR_INITIALIZATION_FAILED, F,
+                         "the loader's API range excludes OpenXR 1.0");
     request->runtimeInterfaceVersion = XR_CURRENT_LOADER_RUNTIME_VERSION;
     request->runtimeApiVersion = RT_API_VERSION;
     request->getInstanceProcAddr = rt_GetInstanceProcAddr;

@@ -26,7 +26,7 @@ HEADERS = {
     "EGL/egl.h": "libegl-dev",
     "GL/gl.h": "libgl-dev",
 }
-CFLAGS = ["-std=gnu11", "-shared", "-fPIC", "-O1", "-g", "-Wall", "-Wextra", "-Werror"]
+CFLAGS = ["-std=gnu11", "-shared", "-fPIC", "-pthread", "-O1", "-g", "-Wall", "-Wextra", "-Werror"]
 # only xrNegotiateLoaderRuntimeInterface is exported: everything else goes through the loader
 CFLAGS += ["-fvisibility=hidden"]
 
@@ -61,7 +61,11 @@ def build_runtime(out_dir: Path) -> Path:
     library = out_dir / LIBRARY_NAME
     srcs = sources()
     newest = max(p.stat().st_mtime for p in srcs)
-    if not library.exists() or library.stat().st_mtime < newest:
+    # BTF_XR_RUNTIME_CFLAGS adds flags (e.g. -fsanitize=address); a change of flags rebuilds
+    extra = os.environ.get("BTF_XR_RUNTIME_CFLAGS", "").split()
+    stamp = out_dir / "build_flags.txt"
+    flags_changed = not stamp.exists() or stamp.read_text() != " ".join(extra)
+    if not library.exists() or library.stat().st_mtime < newest or flags_changed:
         missing = missing_tools()
         if missing:
             raise RuntimeBuildError(
@@ -69,7 +73,8 @@ def build_runtime(out_dir: Path) -> Path:
             )
         cc = os.environ.get("CC") or shutil.which("cc")
         tmp = library.with_name(library.name + f".{os.getpid()}.tmp")
-        cmd = [cc, *CFLAGS, "-o", str(tmp), *(str(p) for p in srcs if p.suffix == ".c"), "-lm"]
+        c_files = [str(p) for p in srcs if p.suffix == ".c"]
+        cmd = [cc, *CFLAGS, *extra, "-o", str(tmp), *c_files, "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             tmp.unlink(missing_ok=True)
@@ -77,6 +82,7 @@ def build_runtime(out_dir: Path) -> Path:
                 f"compiling the OpenXR test runtime failed ({' '.join(cmd)}):\n{proc.stderr}"
             )
         os.replace(tmp, library)  # atomic: a concurrent loader never sees half a library
+        stamp.write_text(" ".join(extra))
     manifest = out_dir / MANIFEST_NAME
     text = json.dumps(
         {

@@ -112,6 +112,7 @@ def create_egl_context() -> EGLContext:
     egl.eglMakeCurrent.argtypes = [vp, vp, vp, vp]
     egl.eglDestroyContext.argtypes = [vp, vp]
     egl.eglGetError.restype = ctypes.c_int32
+    egl.eglGetCurrentContext.restype = vp
 
     display = None
     get_platform_display = egl.eglGetProcAddress(b"eglGetPlatformDisplayEXT")

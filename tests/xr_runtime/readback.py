@@ -35,6 +35,7 @@ class Frame:
     frame: int  # 0-based count of xrEndFrame calls before this one
     display_time: int  # XrTime (ns) the app submitted
     space: str  # the projection layer's reference space: VIEW, LOCAL or STAGE
+    head: tuple = ()  # the script's head pose at display_time (LOCAL = STAGE = world space)
     views: list[View] = field(default_factory=list)
 
 
@@ -43,7 +44,9 @@ def read_capture(directory: Path) -> list[Frame]:
     frames = []
     for path in sorted(Path(directory).glob("frame_?????.json")):
         meta = json.loads(path.read_text())
-        frame = Frame(meta["frame"], meta["display_time"], meta.get("space", ""))
+        frame = Frame(
+            meta["frame"], meta["display_time"], meta.get("space", ""), tuple(meta.get("head", ()))
+        )
         for v in meta["views"]:
             w, h = v["rect"][2], v["rect"][3]
             raw = np.fromfile(path.parent / v["file"], dtype=np.float32)

@@ -3,7 +3,7 @@
  * A test double at a hardware boundary: a small OpenXR 1.0 runtime that the REAL OpenXR loader
  * loads through XR_RUNTIME_JSON. It follows the OpenXR specification (not any client's code) for
  * the subset a GL application needs; see docs/development.md "The OpenXR test runtime".
- * Not thread-safe: calls must be serialised by the app (tests drive it from one thread).
+ * One recursive lock serialises every entry point (apps may call xrWaitFrame from another thread).
  */
 #ifndef BTF_TEST_RUNTIME_RT_H
 #define BTF_TEST_RUNTIME_RT_H
@@ -32,13 +32,13 @@
 
 /* ---- the control script (BTF_XR_TEST_SCRIPT) ---- */
 typedef struct rt_config {
-    int views;               /* view count of the PRIMARY_STEREO configuration (2 normally) */
-    int eye_w, eye_h;        /* recommended image size; max = 4x */
-    double ipd;              /* metres */
+    int views;                  /* view count of the PRIMARY_STEREO configuration (2 normally) */
+    int eye_w, eye_h;           /* recommended image size; max = 4x */
+    double ipd;                 /* metres */
     float fov[RT_MAX_VIEWS][4]; /* angleLeft, angleRight, angleUp, angleDown (radians) */
-    double period_s;         /* predicted display period */
+    double period_s;            /* predicted display period */
     int head_count;
-    double (*head)[7];       /* per submitted frame: x, y, z, qx, qy, qz, qw (last one held) */
+    double (*head)[7]; /* per submitted frame: x, y, z, qx, qy, qz, qw (last one held) */
     int format_count;
     int64_t formats[RT_MAX_FORMATS];
     int extension_count;
@@ -46,6 +46,7 @@ typedef struct rt_config {
     int system_available;
     long lose_after_frames;  /* -1: never */
     int render_from_visible; /* shouldRender only from VISIBLE (Monado); default: SYNCHRONIZED */
+    int pace;                /* xrWaitFrame sleeps until its frame's slot (real time) */
     char capture_dir[4096];  /* "" = no capture */
 } rt_config;
 
@@ -57,7 +58,12 @@ void rt_config_free(rt_config *cfg);
 
 /* ---- objects and handles ---- */
 typedef enum rt_kind {
-    RT_INSTANCE = 1, RT_SESSION, RT_SPACE, RT_SWAPCHAIN, RT_ACTION_SET, RT_ACTION
+    RT_INSTANCE = 1,
+    RT_SESSION,
+    RT_SPACE,
+    RT_SWAPCHAIN,
+    RT_ACTION_SET,
+    RT_ACTION
 } rt_kind;
 
 typedef struct rt_instance rt_instance;
@@ -112,11 +118,11 @@ typedef struct rt_session {
     rt_gl gl;
     XrSessionState state;
     int running, exit_requested, lost;
-    int64_t t0;             /* XrTime of xrBeginSession */
-    long waited;            /* xrWaitFrame calls since xrBeginSession */
-    long waits_unbegun;     /* waits not yet consumed by xrBeginFrame */
+    int64_t t0;         /* XrTime of xrBeginSession */
+    long waited;        /* xrWaitFrame calls since xrBeginSession */
+    long waits_unbegun; /* waits not yet consumed by xrBeginFrame */
     int frame_begun;
-    long submitted;         /* successful xrEndFrame calls */
+    long submitted; /* successful xrEndFrame calls */
 } rt_session;
 
 typedef struct rt_space {
@@ -134,10 +140,13 @@ typedef struct rt_swapchain {
     GLuint images[RT_IMAGES_PER_SWAPCHAIN];
     int queue[RT_IMAGES_PER_SWAPCHAIN]; /* acquired, not yet released, oldest first */
     int queued, head_waited, next_acquire;
-    int last_released;                  /* -1 before the first release */
+    int last_released; /* -1 before the first release */
 } rt_swapchain;
 
-typedef struct rt_simple { rt_kind kind; void *owner; } rt_simple;
+typedef struct rt_simple {
+    rt_kind kind;
+    void *owner;
+} rt_simple;
 
 /* handle registry: a handle is valid only while registered with the expected kind */
 void *rt_handle_get(const void *handle, rt_kind kind);
@@ -145,6 +154,7 @@ void rt_handle_add(void *obj);
 void rt_handle_remove(void *obj);
 /* the first live object of a kind whose owner (the field after kind) is owner, or NULL */
 rt_simple *rt_handle_find_child(rt_kind kind, const void *owner);
+void rt_action_set_free(rt_simple *set);
 
 /* logging: every refused call says why on stderr */
 XrResult rt_refuse(XrResult result, const char *func, const char *fmt, ...)
@@ -166,16 +176,28 @@ int rt_gl_load(rt_gl *gl, const XrGraphicsBindingEGLMNDX *binding);
 int rt_gl_begin(rt_gl *gl);
 void rt_gl_end(rt_gl *gl);
 void rt_swapchain_free(rt_swapchain *sc);
+XrResult rt_check_quad(rt_session *s, const XrCompositionLayerQuad *quad);
 /* display_time 0: validate the layer only; else also read back and write the capture */
 XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *layer,
                           XrTime display_time);
 
 /* the dispatch: name -> function (one table per source file) */
-typedef struct rt_entry { const char *name; PFN_xrVoidFunction fn; int needs; } rt_entry;
+typedef struct rt_entry {
+    const char *name;
+    PFN_xrVoidFunction fn;
+    int needs;
+} rt_entry;
 enum { RT_NEEDS_NONE = 0, RT_NEEDS_OPENGL = 1, RT_NEEDS_EGL = 2 };
 extern const rt_entry rt_session_entries[];
 extern const rt_entry rt_swapchain_entries[];
 extern const rt_entry rt_action_entries[];
+
+/* RT_LOCKED; as an entry point's first statement holds the runtime's lock until it returns */
+int rt_lock_acquire(void);
+void rt_lock_release(int *unused);
+#define RT_LOCKED                                                                     \
+    __attribute__((cleanup(rt_lock_release))) int rt_lock_guard_ = rt_lock_acquire(); \
+    (void)rt_lock_guard_
 
 #define RT_CHECK_TYPE(ptr, expected, func)                                                     \
     do {                                                                                       \

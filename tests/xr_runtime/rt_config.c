@@ -18,7 +18,10 @@ typedef struct jval {
     char **keys;
 } jval;
 
-typedef struct { const char *p; const char *err; } jparser;
+typedef struct {
+    const char *p;
+    const char *err;
+} jparser;
 
 static void jfree(jval *v) {
     free(v->str);
@@ -32,13 +35,17 @@ static void jfree(jval *v) {
 }
 
 static void jws(jparser *ps) {
-    while (isspace((unsigned char)*ps->p)) ps->p++;
+    while (isspace((unsigned char)*ps->p))
+        ps->p++;
 }
 
 static int jparse(jparser *ps, jval *out);
 
 static char *jstring(jparser *ps) {
-    if (*ps->p != '"') { ps->err = "expected a string"; return NULL; }
+    if (*ps->p != '"') {
+        ps->err = "expected a string";
+        return NULL;
+    }
     ps->p++;
     size_t cap = 16, len = 0;
     char *s = malloc(cap);
@@ -56,14 +63,21 @@ static char *jstring(jparser *ps) {
                 c = (char)strtol((char[]){ps->p[0], ps->p[1], ps->p[2], ps->p[3], 0}, NULL, 16);
                 ps->p += 4;
                 break;
-            case 0: ps->err = "unterminated string"; free(s); return NULL;
+            case 0:
+                ps->err = "unterminated string";
+                free(s);
+                return NULL;
             default: c = e;
             }
         }
         if (len + 2 > cap) s = realloc(s, cap *= 2);
         s[len++] = c;
     }
-    if (*ps->p != '"') { ps->err = "unterminated string"; free(s); return NULL; }
+    if (*ps->p != '"') {
+        ps->err = "unterminated string";
+        free(s);
+        return NULL;
+    }
     ps->p++;
     s[len] = 0;
     return s;
@@ -78,24 +92,40 @@ static int jparse(jparser *ps, jval *out) {
         out->t = obj ? J_OBJ : J_ARR;
         ps->p++;
         jws(ps);
-        if (*ps->p == (obj ? '}' : ']')) { ps->p++; return 0; }
+        if (*ps->p == (obj ? '}' : ']')) {
+            ps->p++;
+            return 0;
+        }
         for (;;) {
             char *key = NULL;
             jws(ps);
             if (obj) {
                 if (!(key = jstring(ps))) return -1;
                 jws(ps);
-                if (*ps->p != ':') { ps->err = "expected ':'"; free(key); return -1; }
+                if (*ps->p != ':') {
+                    ps->err = "expected ':'";
+                    free(key);
+                    return -1;
+                }
                 ps->p++;
             }
             out->items = realloc(out->items, sizeof(jval) * (out->n + 1));
             if (obj) out->keys = realloc(out->keys, sizeof(char *) * (out->n + 1));
             if (obj) out->keys[out->n] = key;
-            if (jparse(ps, &out->items[out->n])) { out->n++; return -1; }
+            if (jparse(ps, &out->items[out->n])) {
+                out->n++;
+                return -1;
+            }
             out->n++;
             jws(ps);
-            if (*ps->p == ',') { ps->p++; continue; }
-            if (*ps->p == (obj ? '}' : ']')) { ps->p++; return 0; }
+            if (*ps->p == ',') {
+                ps->p++;
+                continue;
+            }
+            if (*ps->p == (obj ? '}' : ']')) {
+                ps->p++;
+                return 0;
+            }
             ps->err = obj ? "expected ',' or '}'" : "expected ',' or ']'";
             return -1;
         }
@@ -104,13 +134,29 @@ static int jparse(jparser *ps, jval *out) {
         out->t = J_STR;
         return (out->str = jstring(ps)) ? 0 : -1;
     }
-    if (!strncmp(ps->p, "true", 4)) { out->t = J_BOOL; out->num = 1; ps->p += 4; return 0; }
-    if (!strncmp(ps->p, "false", 5)) { out->t = J_BOOL; ps->p += 5; return 0; }
-    if (!strncmp(ps->p, "null", 4)) { out->t = J_NULL; ps->p += 4; return 0; }
+    if (!strncmp(ps->p, "true", 4)) {
+        out->t = J_BOOL;
+        out->num = 1;
+        ps->p += 4;
+        return 0;
+    }
+    if (!strncmp(ps->p, "false", 5)) {
+        out->t = J_BOOL;
+        ps->p += 5;
+        return 0;
+    }
+    if (!strncmp(ps->p, "null", 4)) {
+        out->t = J_NULL;
+        ps->p += 4;
+        return 0;
+    }
     char *end;
     out->t = J_NUM;
     out->num = strtod(ps->p, &end);
-    if (end == ps->p) { ps->err = "unexpected character"; return -1; }
+    if (end == ps->p) {
+        ps->err = "unexpected character";
+        return -1;
+    }
     ps->p = end;
     return 0;
 }
@@ -141,7 +187,8 @@ void rt_config_load_defaults(rt_config *cfg) {
     cfg->eye_w = 96;
     cfg->eye_h = 72;
     cfg->ipd = 0.063;
-    for (int i = 0; i < RT_MAX_VIEWS; i++) memcpy(cfg->fov[i], DEFAULT_FOV[i % 2], sizeof(float[4]));
+    for (int i = 0; i < RT_MAX_VIEWS; i++)
+        memcpy(cfg->fov[i], DEFAULT_FOV[i % 2], sizeof(float[4]));
     cfg->period_s = 0.05;
     cfg->head_count = 1;
     cfg->head = calloc(1, sizeof(double[7]));
@@ -162,12 +209,12 @@ void rt_config_free(rt_config *cfg) {
     cfg->head = NULL;
 }
 
-#define BAD(...)                                                                  \
-    do {                                                                          \
-        fprintf(stderr, "[BTF test runtime] control script %s: ", path);          \
-        fprintf(stderr, __VA_ARGS__);                                             \
-        fputc('\n', stderr);                                                      \
-        goto fail;                                                                \
+#define BAD(...)                                                         \
+    do {                                                                 \
+        fprintf(stderr, "[BTF test runtime] control script %s: ", path); \
+        fprintf(stderr, __VA_ARGS__);                                    \
+        fputc('\n', stderr);                                             \
+        goto fail;                                                       \
     } while (0)
 
 int rt_config_load(rt_config *cfg) {
@@ -182,15 +229,40 @@ int rt_config_load(rt_config *cfg) {
     long size = ftell(f);
     fseek(f, 0, SEEK_SET);
     text = calloc(1, size + 1);
-    if (fread(text, 1, size, f) != (size_t)size) { fclose(f); BAD("cannot be read"); }
+    if (fread(text, 1, size, f) != (size_t)size) {
+        fclose(f);
+        BAD("cannot be read");
+    }
     fclose(f);
     jparser ps = {text, NULL};
     if (jparse(&ps, &root)) BAD("is not JSON (%s near byte %ld)", ps.err, (long)(ps.p - text));
     if (root.t != J_OBJ) BAD("is not a JSON object");
+    static const char *const KNOWN[] = {
+        "views",
+        "eye_size",
+        "ipd",
+        "fov",
+        "display_period_s",
+        "head",
+        "formats",
+        "extensions",
+        "system_available",
+        "lose_session_after_frames",
+        "should_render_from",
+        "pace",
+        "capture_dir",
+    };
+    for (int i = 0; i < root.n; i++) {
+        int ok = 0;
+        for (size_t k = 0; k < sizeof KNOWN / sizeof *KNOWN; k++)
+            ok |= !strcmp(root.keys[i], KNOWN[k]);
+        if (!ok) BAD("unknown key \"%s\" (controller actions are not scripted yet)", root.keys[i]);
+    }
     const jval *v;
     double d[7];
     if ((v = jget(&root, "views")) && v->t != J_NULL) {
-        if (v->t != J_NUM || v->num < 1 || v->num > RT_MAX_VIEWS) BAD("views must be 1..%d", RT_MAX_VIEWS);
+        if (v->t != J_NUM || v->num < 1 || v->num > RT_MAX_VIEWS)
+            BAD("views must be 1..%d", RT_MAX_VIEWS);
         cfg->views = (int)v->num;
     }
     if ((v = jget(&root, "eye_size")) && v->t != J_NULL) {
@@ -211,30 +283,38 @@ int rt_config_load(rt_config *cfg) {
             sides[1] = jget(v, "right");
             n = 2;
         } else if (v->t == J_ARR && v->n <= RT_MAX_VIEWS) {
-            for (n = 0; n < v->n; n++) sides[n] = &v->items[n];
-        } else BAD("fov must be {\"left\": [l, r, u, d], \"right\": [...]} or a list per view");
+            for (n = 0; n < v->n; n++)
+                sides[n] = &v->items[n];
+        } else
+            BAD("fov must be {\"left\": [l, r, u, d], \"right\": [...]} or a list per view");
         for (int i = 0; i < n; i++) {
             if (!sides[i]) continue;
-            if (jnums(sides[i], d, 4)) BAD("each fov must be [angleLeft, angleRight, angleUp, angleDown]");
-            for (int k = 0; k < 4; k++) cfg->fov[i][k] = (float)d[k];
+            if (jnums(sides[i], d, 4))
+                BAD("each fov must be [angleLeft, angleRight, angleUp, angleDown]");
+            for (int k = 0; k < 4; k++)
+                cfg->fov[i][k] = (float)d[k];
         }
-        for (int i = n; i < RT_MAX_VIEWS; i++) memcpy(cfg->fov[i], cfg->fov[i % 2], sizeof(float[4]));
+        for (int i = n; i < RT_MAX_VIEWS; i++)
+            memcpy(cfg->fov[i], cfg->fov[i % 2], sizeof(float[4]));
     }
     if ((v = jget(&root, "display_period_s")) && v->t != J_NULL) {
         if (v->t != J_NUM || v->num <= 0) BAD("display_period_s must be a positive number");
         cfg->period_s = v->num;
     }
     if ((v = jget(&root, "head")) && v->t != J_NULL) {
-        if (v->t != J_ARR || v->n < 1) BAD("head must be a non-empty list of [x, y, z, qx, qy, qz, qw]");
+        if (v->t != J_ARR || v->n < 1)
+            BAD("head must be a non-empty list of [x, y, z, qx, qy, qz, qw]");
         free(cfg->head);
         cfg->head = calloc(v->n, sizeof(double[7]));
         cfg->head_count = v->n;
         for (int i = 0; i < v->n; i++) {
-            if (jnums(&v->items[i], cfg->head[i], 7)) BAD("head[%d] must be [x, y, z, qx, qy, qz, qw]", i);
+            if (jnums(&v->items[i], cfg->head[i], 7))
+                BAD("head[%d] must be [x, y, z, qx, qy, qz, qw]", i);
             double *q = cfg->head[i] + 3;
             double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
             if (norm < 1e-6) BAD("head[%d] has a zero quaternion", i);
-            for (int k = 0; k < 4; k++) q[k] /= norm;
+            for (int k = 0; k < 4; k++)
+                q[k] /= norm;
         }
     }
     if ((v = jget(&root, "formats")) && v->t != J_NULL) {
@@ -266,6 +346,10 @@ int rt_config_load(rt_config *cfg) {
         if (v->t != J_STR || (strcmp(v->str, "synchronized") && strcmp(v->str, "visible")))
             BAD("should_render_from must be \"synchronized\" or \"visible\"");
         cfg->render_from_visible = !strcmp(v->str, "visible");
+    }
+    if ((v = jget(&root, "pace")) && v->t != J_NULL) {
+        if (v->t != J_BOOL) BAD("pace must be true or false");
+        cfg->pace = v->num != 0;
     }
     if ((v = jget(&root, "capture_dir")) && v->t != J_NULL) {
         if (v->t != J_STR || v->str[0] != '/' || strlen(v->str) >= sizeof cfg->capture_dir)

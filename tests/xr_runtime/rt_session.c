@@ -3,16 +3,17 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "rt.h"
 
-#define GET_SESSION(var, handle, func)                                                     \
-    rt_session *var = rt_handle_get((handle), RT_SESSION);                                 \
+#define GET_SESSION(var, handle, func)                     \
+    rt_session *var = rt_handle_get((handle), RT_SESSION); \
     if (!var) return rt_refuse(XR_ERROR_HANDLE_INVALID, func, "not a live XrSession")
 
-#define CHECK_NOT_LOST(s, func)                                                            \
-    do {                                                                                   \
-        if ((s)->lost)                                                                     \
+#define CHECK_NOT_LOST(s, func)                                                              \
+    do {                                                                                     \
+        if ((s)->lost)                                                                       \
             return rt_refuse(XR_ERROR_SESSION_LOST, func, "the session is in LOSS_PENDING"); \
     } while (0)
 
@@ -60,7 +61,8 @@ XrResult rt_head_pose(rt_session *s, XrTime t, XrPosef *out) {
     const rt_config *cfg = &s->instance->cfg;
     long k = frame_at(s, t);
     const double *h = cfg->head[k < cfg->head_count ? k : cfg->head_count - 1];
-    XrPosef p = {{(float)h[3], (float)h[4], (float)h[5], (float)h[6]}, {(float)h[0], (float)h[1], (float)h[2]}};
+    XrPosef p = {{(float)h[3], (float)h[4], (float)h[5], (float)h[6]},
+                 {(float)h[0], (float)h[1], (float)h[2]}};
     *out = p;
     return XR_SUCCESS;
 }
@@ -86,7 +88,7 @@ void rt_set_state(rt_session *s, XrSessionState state) {
     rt_instance *inst = s->instance;
     s->state = state;
     if (inst->event_count == RT_EVENT_QUEUE) {
-        /* full: drop the oldest and tell the app (XrEventDataEventsLost) on the next poll */
+        /* full (an app that never polls): drop the oldest */
         inst->event_head = (inst->event_head + 1) % RT_EVENT_QUEUE;
         inst->event_count--;
     }
@@ -99,7 +101,9 @@ void rt_set_state(rt_session *s, XrSessionState state) {
     e->time = rt_now_ns();
 }
 
-static XrResult XRAPI_CALL rt_CreateSession(XrInstance instance, const XrSessionCreateInfo *info, XrSession *out) {
+static XrResult XRAPI_CALL rt_CreateSession(XrInstance instance, const XrSessionCreateInfo *info,
+                                            XrSession *out) {
+    RT_LOCKED;
     const char *F = "xrCreateSession";
     rt_instance *inst = rt_handle_get(instance, RT_INSTANCE);
     if (!inst) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrInstance");
@@ -108,7 +112,8 @@ static XrResult XRAPI_CALL rt_CreateSession(XrInstance instance, const XrSession
         return rt_refuse(XR_ERROR_SYSTEM_INVALID, F, "systemId was not returned by xrGetSystem");
     const XrGraphicsBindingEGLMNDX *binding = NULL;
     for (const XrBaseInStructure *n = info->next; n; n = n->next)
-        if (n->type == XR_TYPE_GRAPHICS_BINDING_EGL_MNDX) binding = (const XrGraphicsBindingEGLMNDX *)n;
+        if (n->type == XR_TYPE_GRAPHICS_BINDING_EGL_MNDX)
+            binding = (const XrGraphicsBindingEGLMNDX *)n;
     if (!binding || !inst->ext_egl || !inst->ext_opengl)
         return rt_refuse(XR_ERROR_GRAPHICS_DEVICE_INVALID, F,
                          "needs an XrGraphicsBindingEGLMNDX in next (XR_KHR_opengl_enable and "
@@ -117,14 +122,16 @@ static XrResult XRAPI_CALL rt_CreateSession(XrInstance instance, const XrSession
         return rt_refuse(XR_ERROR_GRAPHICS_REQUIREMENTS_CALL_MISSING, F,
                          "xrGetOpenGLGraphicsRequirementsKHR was not called first");
     if (!binding->getProcAddress || !binding->display || !binding->context)
-        return rt_refuse(XR_ERROR_GRAPHICS_DEVICE_INVALID, F, "the EGL binding lacks getProcAddress, display or context");
+        return rt_refuse(XR_ERROR_GRAPHICS_DEVICE_INVALID, F,
+                         "the EGL binding lacks getProcAddress, display or context");
     if (inst->session) return rt_refuse(XR_ERROR_LIMIT_REACHED, F, "one session per instance");
     rt_session *s = calloc(1, sizeof *s);
     s->kind = RT_SESSION;
     s->instance = inst;
     if (rt_gl_load(&s->gl, binding)) {
         free(s);
-        return rt_refuse(XR_ERROR_GRAPHICS_DEVICE_INVALID, F, "the binding's getProcAddress lacks GL or EGL functions");
+        return rt_refuse(XR_ERROR_GRAPHICS_DEVICE_INVALID, F,
+                         "the binding's getProcAddress lacks GL or EGL functions");
     }
     rt_handle_add(s);
     inst->session = s;
@@ -144,12 +151,14 @@ void rt_session_free(rt_session *s) {
 }
 
 static XrResult XRAPI_CALL rt_DestroySession(XrSession session) {
+    RT_LOCKED;
     GET_SESSION(s, session, "xrDestroySession");
     rt_session_free(s);
     return XR_SUCCESS;
 }
 
 static XrResult XRAPI_CALL rt_BeginSession(XrSession session, const XrSessionBeginInfo *info) {
+    RT_LOCKED;
     const char *F = "xrBeginSession";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_SESSION_BEGIN_INFO, F);
@@ -159,7 +168,8 @@ static XrResult XRAPI_CALL rt_BeginSession(XrSession session, const XrSessionBeg
         return rt_refuse(XR_ERROR_SESSION_NOT_READY, F, "the session is not READY");
     if (info->primaryViewConfigurationType != XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO)
         return rt_refuse(XR_ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED, F,
-                         "primaryViewConfigurationType %d (only PRIMARY_STEREO)", (int)info->primaryViewConfigurationType);
+                         "primaryViewConfigurationType %d (only PRIMARY_STEREO)",
+                         (int)info->primaryViewConfigurationType);
     s->running = 1;
     s->t0 = rt_now_ns();
     s->waited = s->waits_unbegun = 0;
@@ -169,10 +179,12 @@ static XrResult XRAPI_CALL rt_BeginSession(XrSession session, const XrSessionBeg
 }
 
 static XrResult XRAPI_CALL rt_RequestExitSession(XrSession session) {
+    RT_LOCKED;
     const char *F = "xrRequestExitSession";
     GET_SESSION(s, session, F);
     CHECK_NOT_LOST(s, F);
-    if (!s->running) return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
+    if (!s->running)
+        return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
     s->exit_requested = 1;
     if (s->state == XR_SESSION_STATE_FOCUSED) rt_set_state(s, XR_SESSION_STATE_VISIBLE);
     if (s->state == XR_SESSION_STATE_VISIBLE) rt_set_state(s, XR_SESSION_STATE_SYNCHRONIZED);
@@ -181,12 +193,15 @@ static XrResult XRAPI_CALL rt_RequestExitSession(XrSession session) {
 }
 
 static XrResult XRAPI_CALL rt_EndSession(XrSession session) {
+    RT_LOCKED;
     const char *F = "xrEndSession";
     GET_SESSION(s, session, F);
     CHECK_NOT_LOST(s, F);
-    if (!s->running) return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
+    if (!s->running)
+        return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
     if (s->state != XR_SESSION_STATE_STOPPING)
-        return rt_refuse(XR_ERROR_SESSION_NOT_STOPPING, F, "the session is not STOPPING (call xrRequestExitSession)");
+        return rt_refuse(XR_ERROR_SESSION_NOT_STOPPING, F,
+                         "the session is not STOPPING (call xrRequestExitSession)");
     s->running = 0;
     rt_set_state(s, XR_SESSION_STATE_IDLE);
     if (s->exit_requested) rt_set_state(s, XR_SESSION_STATE_EXITING);
@@ -194,12 +209,14 @@ static XrResult XRAPI_CALL rt_EndSession(XrSession session) {
 }
 
 /* ---- spaces ---- */
-static XrResult XRAPI_CALL rt_EnumerateReferenceSpaces(XrSession session, uint32_t capacity, uint32_t *countOutput,
-                                                      XrReferenceSpaceType *spaces) {
+static XrResult XRAPI_CALL rt_EnumerateReferenceSpaces(XrSession session, uint32_t capacity,
+                                                       uint32_t *countOutput,
+                                                       XrReferenceSpaceType *spaces) {
+    RT_LOCKED;
     const char *F = "xrEnumerateReferenceSpaces";
     GET_SESSION(s, session, F);
-    static const XrReferenceSpaceType types[] = {XR_REFERENCE_SPACE_TYPE_VIEW, XR_REFERENCE_SPACE_TYPE_LOCAL,
-                                                 XR_REFERENCE_SPACE_TYPE_STAGE};
+    static const XrReferenceSpaceType types[] = {
+        XR_REFERENCE_SPACE_TYPE_VIEW, XR_REFERENCE_SPACE_TYPE_LOCAL, XR_REFERENCE_SPACE_TYPE_STAGE};
     if (!countOutput) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "count output is NULL");
     *countOutput = 3;
     if (!capacity) return XR_SUCCESS;
@@ -214,17 +231,22 @@ static int pose_valid(const XrPosef *p) {
     return fabsf(n - 1.0f) < 1e-3f; /* the spec asks for unit quaternions; allow float rounding */
 }
 
-static XrResult XRAPI_CALL rt_CreateReferenceSpace(XrSession session, const XrReferenceSpaceCreateInfo *info,
-                                                  XrSpace *out) {
+static XrResult XRAPI_CALL rt_CreateReferenceSpace(XrSession session,
+                                                   const XrReferenceSpaceCreateInfo *info,
+                                                   XrSpace *out) {
+    RT_LOCKED;
     const char *F = "xrCreateReferenceSpace";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_REFERENCE_SPACE_CREATE_INFO, F);
     CHECK_NOT_LOST(s, F);
-    if (info->referenceSpaceType != XR_REFERENCE_SPACE_TYPE_VIEW && info->referenceSpaceType != XR_REFERENCE_SPACE_TYPE_LOCAL &&
+    if (info->referenceSpaceType != XR_REFERENCE_SPACE_TYPE_VIEW &&
+        info->referenceSpaceType != XR_REFERENCE_SPACE_TYPE_LOCAL &&
         info->referenceSpaceType != XR_REFERENCE_SPACE_TYPE_STAGE)
-        return rt_refuse(XR_ERROR_REFERENCE_SPACE_UNSUPPORTED, F, "reference space type %d", (int)info->referenceSpaceType);
+        return rt_refuse(XR_ERROR_REFERENCE_SPACE_UNSUPPORTED, F, "reference space type %d",
+                         (int)info->referenceSpaceType);
     if (!pose_valid(&info->poseInReferenceSpace))
-        return rt_refuse(XR_ERROR_POSE_INVALID, F, "poseInReferenceSpace's orientation is not a unit quaternion");
+        return rt_refuse(XR_ERROR_POSE_INVALID, F,
+                         "poseInReferenceSpace's orientation is not a unit quaternion");
     rt_space *sp = calloc(1, sizeof *sp);
     sp->kind = RT_SPACE;
     sp->session = s;
@@ -235,11 +257,14 @@ static XrResult XRAPI_CALL rt_CreateReferenceSpace(XrSession session, const XrRe
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_CreateActionSpace(XrSession session, const XrActionSpaceCreateInfo *info, XrSpace *out) {
+static XrResult XRAPI_CALL rt_CreateActionSpace(XrSession session,
+                                                const XrActionSpaceCreateInfo *info, XrSpace *out) {
+    RT_LOCKED;
     const char *F = "xrCreateActionSpace";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_ACTION_SPACE_CREATE_INFO, F);
-    if (!rt_handle_get(info->action, RT_ACTION)) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrAction");
+    if (!rt_handle_get(info->action, RT_ACTION))
+        return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrAction");
     rt_space *sp = calloc(1, sizeof *sp);
     sp->kind = RT_SPACE;
     sp->session = s;
@@ -251,6 +276,7 @@ static XrResult XRAPI_CALL rt_CreateActionSpace(XrSession session, const XrActio
 }
 
 static XrResult XRAPI_CALL rt_DestroySpace(XrSpace space) {
+    RT_LOCKED;
     rt_space *sp = rt_handle_get(space, RT_SPACE);
     if (!sp) return rt_refuse(XR_ERROR_HANDLE_INVALID, "xrDestroySpace", "not a live XrSpace");
     rt_handle_remove(sp);
@@ -258,8 +284,10 @@ static XrResult XRAPI_CALL rt_DestroySpace(XrSpace space) {
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_GetReferenceSpaceBoundsRect(XrSession session, XrReferenceSpaceType type,
-                                                         XrExtent2Df *bounds) {
+static XrResult XRAPI_CALL rt_GetReferenceSpaceBoundsRect(XrSession session,
+                                                          XrReferenceSpaceType type,
+                                                          XrExtent2Df *bounds) {
+    RT_LOCKED;
     const char *F = "xrGetReferenceSpaceBoundsRect";
     GET_SESSION(s, session, F);
     (void)type;
@@ -267,7 +295,9 @@ static XrResult XRAPI_CALL rt_GetReferenceSpaceBoundsRect(XrSession session, XrR
     return XR_SPACE_BOUNDS_UNAVAILABLE;
 }
 
-static XrResult XRAPI_CALL rt_LocateSpace(XrSpace space, XrSpace baseSpace, XrTime time, XrSpaceLocation *loc) {
+static XrResult XRAPI_CALL rt_LocateSpace(XrSpace space, XrSpace baseSpace, XrTime time,
+                                          XrSpaceLocation *loc) {
+    RT_LOCKED;
     const char *F = "xrLocateSpace";
     rt_space *a = rt_handle_get(space, RT_SPACE), *b = rt_handle_get(baseSpace, RT_SPACE);
     if (!a || !b) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSpace");
@@ -283,49 +313,70 @@ static XrResult XRAPI_CALL rt_LocateSpace(XrSpace space, XrSpace baseSpace, XrTi
     rt_space_world_pose(b, time, &wb);
     rt_pose_inv(&wb, &inv);
     rt_pose_mul(&inv, &wa, &loc->pose);
-    loc->locationFlags = XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT |
-                         XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
+    loc->locationFlags =
+        XR_SPACE_LOCATION_ORIENTATION_VALID_BIT | XR_SPACE_LOCATION_POSITION_VALID_BIT |
+        XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT | XR_SPACE_LOCATION_POSITION_TRACKED_BIT;
     return XR_SUCCESS;
 }
 
 /* ---- the frame loop ---- */
-static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo *info, XrFrameState *state) {
+static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo *info,
+                                        XrFrameState *state) {
+    RT_LOCKED;
     const char *F = "xrWaitFrame";
     GET_SESSION(s, session, F);
     if (info && info->type != XR_TYPE_FRAME_WAIT_INFO)
-        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "frameWaitInfo type is not XR_TYPE_FRAME_WAIT_INFO");
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F,
+                         "frameWaitInfo type is not XR_TYPE_FRAME_WAIT_INFO");
     RT_CHECK_TYPE(state, XR_TYPE_FRAME_STATE, F);
     CHECK_NOT_LOST(s, F);
-    if (!s->running) return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
+    if (!s->running)
+        return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
     const rt_config *cfg = &s->instance->cfg;
     int64_t period = (int64_t)(cfg->period_s * 1e9);
     long k = s->waited++;
     s->waits_unbegun++;
+    if (cfg->pace) { /* block until this frame's slot opens, one period before its display */
+        int64_t wait_ns = s->t0 + k * period - rt_now_ns();
+        if (wait_ns > 0) { /* other threads may call in meanwhile (the lock is recursive) */
+            struct timespec ts = {wait_ns / 1000000000, wait_ns % 1000000000};
+            rt_lock_release(NULL);
+            nanosleep(&ts, NULL);
+            rt_lock_acquire();
+        }
+    }
     state->predictedDisplayTime = s->t0 + (k + 1) * period;
     state->predictedDisplayPeriod = period;
     int visible = s->state == XR_SESSION_STATE_VISIBLE || s->state == XR_SESSION_STATE_FOCUSED;
-    state->shouldRender = (visible || (!cfg->render_from_visible && s->state == XR_SESSION_STATE_SYNCHRONIZED))
-                              ? XR_TRUE
-                              : XR_FALSE;
+    state->shouldRender =
+        (visible || (!cfg->render_from_visible && s->state == XR_SESSION_STATE_SYNCHRONIZED))
+            ? XR_TRUE
+            : XR_FALSE;
     /* the compositor shows the app from its first frame on: VISIBLE now, FOCUSED after the
      * first submitted frame */
-    if (s->state == XR_SESSION_STATE_SYNCHRONIZED && !s->exit_requested) rt_set_state(s, XR_SESSION_STATE_VISIBLE);
+    if (s->state == XR_SESSION_STATE_SYNCHRONIZED && !s->exit_requested)
+        rt_set_state(s, XR_SESSION_STATE_VISIBLE);
     return XR_SUCCESS;
 }
 
 static XrResult XRAPI_CALL rt_BeginFrame(XrSession session, const XrFrameBeginInfo *info) {
+    RT_LOCKED;
     const char *F = "xrBeginFrame";
     GET_SESSION(s, session, F);
     if (info && info->type != XR_TYPE_FRAME_BEGIN_INFO)
-        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "frameBeginInfo type is not XR_TYPE_FRAME_BEGIN_INFO");
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F,
+                         "frameBeginInfo type is not XR_TYPE_FRAME_BEGIN_INFO");
     CHECK_NOT_LOST(s, F);
-    if (!s->running) return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
+    if (!s->running)
+        return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
     if (!s->waits_unbegun)
-        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F, "no xrWaitFrame precedes this xrBeginFrame");
+        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F,
+                         "no xrWaitFrame precedes this xrBeginFrame");
     s->waits_unbegun--;
     XrResult r = XR_SUCCESS;
     if (s->frame_begun) {
-        fprintf(stderr, "[BTF test runtime] xrBeginFrame -> XR_FRAME_DISCARDED: the previous frame was begun but not ended\n");
+        fprintf(stderr, "[BTF test runtime] xrBeginFrame -> XR_FRAME_DISCARDED: the previous frame "
+                        "was begun but not ended\n");
         r = XR_FRAME_DISCARDED;
     }
     s->frame_begun = 1;
@@ -333,25 +384,43 @@ static XrResult XRAPI_CALL rt_BeginFrame(XrSession session, const XrFrameBeginIn
 }
 
 static XrResult XRAPI_CALL rt_EndFrame(XrSession session, const XrFrameEndInfo *info) {
+    RT_LOCKED;
     const char *F = "xrEndFrame";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_FRAME_END_INFO, F);
     CHECK_NOT_LOST(s, F);
-    if (!s->running) return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
-    if (!s->frame_begun) return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F, "no xrBeginFrame precedes this xrEndFrame");
-    if (info->displayTime <= 0) return rt_refuse(XR_ERROR_TIME_INVALID, F, "displayTime %lld", (long long)info->displayTime);
+    if (!s->running)
+        return rt_refuse(XR_ERROR_SESSION_NOT_RUNNING, F, "the session is not running");
+    if (!s->frame_begun)
+        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F,
+                         "no xrBeginFrame precedes this xrEndFrame");
+    if (info->displayTime <= 0)
+        return rt_refuse(XR_ERROR_TIME_INVALID, F, "displayTime %lld",
+                         (long long)info->displayTime);
     if (info->environmentBlendMode != XR_ENVIRONMENT_BLEND_MODE_OPAQUE)
-        return rt_refuse(XR_ERROR_ENVIRONMENT_BLEND_MODE_UNSUPPORTED, F, "blend mode %d (only OPAQUE)", (int)info->environmentBlendMode);
+        return rt_refuse(XR_ERROR_ENVIRONMENT_BLEND_MODE_UNSUPPORTED, F,
+                         "blend mode %d (only OPAQUE)", (int)info->environmentBlendMode);
     if (info->layerCount > RT_MAX_LAYERS)
-        return rt_refuse(XR_ERROR_LAYER_LIMIT_EXCEEDED, F, "%u layers > maxLayerCount %d", info->layerCount, RT_MAX_LAYERS);
-    if (info->layerCount && !info->layers) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "layers is NULL");
+        return rt_refuse(XR_ERROR_LAYER_LIMIT_EXCEEDED, F, "%u layers > maxLayerCount %d",
+                         info->layerCount, RT_MAX_LAYERS);
+    if (info->layerCount && !info->layers)
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "layers is NULL");
     const XrCompositionLayerProjection *projection = NULL;
     for (uint32_t i = 0; i < info->layerCount; i++) {
         const XrCompositionLayerBaseHeader *l = info->layers[i];
         if (!l) return rt_refuse(XR_ERROR_LAYER_INVALID, F, "layers[%u] is NULL", i);
+        if (l->type == XR_TYPE_COMPOSITION_LAYER_QUAD) { /* validated, composited, not captured */
+            XrResult r = rt_check_quad(s, (const XrCompositionLayerQuad *)l);
+            if (XR_FAILED(r)) return r;
+            continue;
+        }
         if (l->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION)
-            return rt_refuse(XR_ERROR_LAYER_INVALID, F, "layers[%u] has type %d; this runtime composites projection layers only", i, (int)l->type);
-        XrResult r = rt_capture_frame(s, (const XrCompositionLayerProjection *)l, 0); /* validation only */
+            return rt_refuse(
+                XR_ERROR_LAYER_INVALID, F,
+                "layers[%u] has type %d; this runtime composites projection and quad layers only",
+                i, (int)l->type);
+        XrResult r =
+            rt_capture_frame(s, (const XrCompositionLayerProjection *)l, 0); /* validation only */
         if (XR_FAILED(r)) return r;
         if (!projection) projection = (const XrCompositionLayerProjection *)l;
     }
@@ -361,26 +430,35 @@ static XrResult XRAPI_CALL rt_EndFrame(XrSession session, const XrFrameEndInfo *
         if (XR_FAILED(r)) return r;
     }
     s->submitted++;
-    if (s->state == XR_SESSION_STATE_VISIBLE && !s->exit_requested) rt_set_state(s, XR_SESSION_STATE_FOCUSED);
+    if (s->state == XR_SESSION_STATE_VISIBLE && !s->exit_requested)
+        rt_set_state(s, XR_SESSION_STATE_FOCUSED);
     long lose = s->instance->cfg.lose_after_frames;
     if (lose >= 0 && s->submitted >= lose && !s->lost) {
-        fprintf(stderr, "[BTF test runtime] the session is lost after %ld frames (script: lose_session_after_frames)\n", s->submitted);
+        fprintf(stderr,
+                "[BTF test runtime] the session is lost after %ld frames (script: "
+                "lose_session_after_frames)\n",
+                s->submitted);
         s->lost = 1;
         rt_set_state(s, XR_SESSION_STATE_LOSS_PENDING);
     }
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_LocateViews(XrSession session, const XrViewLocateInfo *info, XrViewState *viewState,
-                                         uint32_t capacity, uint32_t *countOutput, XrView *views) {
+static XrResult XRAPI_CALL rt_LocateViews(XrSession session, const XrViewLocateInfo *info,
+                                          XrViewState *viewState, uint32_t capacity,
+                                          uint32_t *countOutput, XrView *views) {
+    RT_LOCKED;
     const char *F = "xrLocateViews";
     GET_SESSION(s, session, F);
     RT_CHECK_TYPE(info, XR_TYPE_VIEW_LOCATE_INFO, F);
     RT_CHECK_TYPE(viewState, XR_TYPE_VIEW_STATE, F);
     CHECK_NOT_LOST(s, F);
     if (info->viewConfigurationType != XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO)
-        return rt_refuse(XR_ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED, F, "view configuration %d", (int)info->viewConfigurationType);
-    if (info->displayTime <= 0) return rt_refuse(XR_ERROR_TIME_INVALID, F, "displayTime %lld", (long long)info->displayTime);
+        return rt_refuse(XR_ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED, F, "view configuration %d",
+                         (int)info->viewConfigurationType);
+    if (info->displayTime <= 0)
+        return rt_refuse(XR_ERROR_TIME_INVALID, F, "displayTime %lld",
+                         (long long)info->displayTime);
     rt_space *base = rt_handle_get(info->space, RT_SPACE);
     if (!base) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "info->space is not a live XrSpace");
     const rt_config *cfg = &s->instance->cfg;
@@ -388,7 +466,8 @@ static XrResult XRAPI_CALL rt_LocateViews(XrSession session, const XrViewLocateI
     *countOutput = cfg->views;
     if (!capacity) return XR_SUCCESS;
     if (capacity < (uint32_t)cfg->views)
-        return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, F, "capacity %u < %d views", capacity, cfg->views);
+        return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, F, "capacity %u < %d views", capacity,
+                         cfg->views);
     XrPosef head, base_world, inv;
     rt_head_pose(s, info->displayTime, &head);
     if (!base->type) { /* an action space: untracked */
@@ -404,15 +483,17 @@ static XrResult XRAPI_CALL rt_LocateViews(XrSession session, const XrViewLocateI
         rt_pose_mul(&inv, &eye, &views[i].pose);
         views[i].fov = (XrFovf){cfg->fov[i][0], cfg->fov[i][1], cfg->fov[i][2], cfg->fov[i][3]};
     }
-    viewState->viewStateFlags = XR_VIEW_STATE_ORIENTATION_VALID_BIT | XR_VIEW_STATE_POSITION_VALID_BIT |
-                                XR_VIEW_STATE_ORIENTATION_TRACKED_BIT | XR_VIEW_STATE_POSITION_TRACKED_BIT;
+    viewState->viewStateFlags =
+        XR_VIEW_STATE_ORIENTATION_VALID_BIT | XR_VIEW_STATE_POSITION_VALID_BIT |
+        XR_VIEW_STATE_ORIENTATION_TRACKED_BIT | XR_VIEW_STATE_POSITION_TRACKED_BIT;
     return XR_SUCCESS;
 }
 
 static void destroy_children(rt_session *s) {
     /* spaces, swapchains and action spaces die with their session (the spec's child handles) */
     rt_simple *child;
-    while ((child = rt_handle_find_child(RT_SWAPCHAIN, s))) rt_swapchain_free((rt_swapchain *)child);
+    while ((child = rt_handle_find_child(RT_SWAPCHAIN, s)))
+        rt_swapchain_free((rt_swapchain *)child);
     while ((child = rt_handle_find_child(RT_SPACE, s))) {
         rt_handle_remove(child);
         free(child);

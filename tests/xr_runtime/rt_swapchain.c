@@ -14,8 +14,8 @@
 
 #include "rt.h"
 
-#define GET_SWAPCHAIN(var, handle, func)                                                   \
-    rt_swapchain *var = rt_handle_get((handle), RT_SWAPCHAIN);                             \
+#define GET_SWAPCHAIN(var, handle, func)                       \
+    rt_swapchain *var = rt_handle_get((handle), RT_SWAPCHAIN); \
     if (!var) return rt_refuse(XR_ERROR_HANDLE_INVALID, func, "not a live XrSwapchain")
 
 static void *lookup(rt_gl *gl, const char *name) {
@@ -31,8 +31,11 @@ int rt_gl_load(rt_gl *gl, const XrGraphicsBindingEGLMNDX *b) {
     gl->get_proc = b->getProcAddress;
     gl->display = b->display;
     gl->context = b->context;
-#define LOAD(field, name) if (!(*(void **)&gl->field = lookup(gl, name))) { \
-        fprintf(stderr, "[BTF test runtime] the binding's getProcAddress has no %s\n", name); return -1; }
+#define LOAD(field, name)                                                                     \
+    if (!(*(void **)&gl->field = lookup(gl, name))) {                                         \
+        fprintf(stderr, "[BTF test runtime] the binding's getProcAddress has no %s\n", name); \
+        return -1;                                                                            \
+    }
     LOAD(GetCurrentContext, "eglGetCurrentContext");
     LOAD(GetCurrentDisplay, "eglGetCurrentDisplay");
     LOAD(GetCurrentSurface, "eglGetCurrentSurface");
@@ -77,12 +80,14 @@ void rt_gl_end(rt_gl *gl) {
 }
 
 static int is_srgb(int64_t format) {
-    return format == GL_SRGB8_ALPHA8 || format == GL_SRGB8 || format == GL_SRGB_ALPHA || format == GL_SRGB;
+    return format == GL_SRGB8_ALPHA8 || format == GL_SRGB8 || format == GL_SRGB_ALPHA ||
+           format == GL_SRGB;
 }
 
 /* ---- swapchains ---- */
-static XrResult XRAPI_CALL rt_EnumerateSwapchainFormats(XrSession session, uint32_t capacity, uint32_t *countOutput,
-                                                       int64_t *formats) {
+static XrResult XRAPI_CALL rt_EnumerateSwapchainFormats(XrSession session, uint32_t capacity,
+                                                        uint32_t *countOutput, int64_t *formats) {
+    RT_LOCKED;
     const char *F = "xrEnumerateSwapchainFormats";
     rt_session *s = rt_handle_get(session, RT_SESSION);
     if (!s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
@@ -91,12 +96,15 @@ static XrResult XRAPI_CALL rt_EnumerateSwapchainFormats(XrSession session, uint3
     *countOutput = cfg->format_count;
     if (!capacity) return XR_SUCCESS;
     if (capacity < (uint32_t)cfg->format_count)
-        return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, F, "capacity %u < %d", capacity, cfg->format_count);
+        return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, F, "capacity %u < %d", capacity,
+                         cfg->format_count);
     memcpy(formats, cfg->formats, sizeof(int64_t) * cfg->format_count);
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_CreateSwapchain(XrSession session, const XrSwapchainCreateInfo *ci, XrSwapchain *out) {
+static XrResult XRAPI_CALL rt_CreateSwapchain(XrSession session, const XrSwapchainCreateInfo *ci,
+                                              XrSwapchain *out) {
+    RT_LOCKED;
     const char *F = "xrCreateSwapchain";
     rt_session *s = rt_handle_get(session, RT_SESSION);
     if (!s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "not a live XrSession");
@@ -104,26 +112,31 @@ static XrResult XRAPI_CALL rt_CreateSwapchain(XrSession session, const XrSwapcha
     if (s->lost) return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
     const rt_config *cfg = &s->instance->cfg;
     int known = 0;
-    for (int i = 0; i < cfg->format_count; i++) known |= cfg->formats[i] == ci->format;
+    for (int i = 0; i < cfg->format_count; i++)
+        known |= cfg->formats[i] == ci->format;
     if (!known)
         return rt_refuse(XR_ERROR_SWAPCHAIN_FORMAT_UNSUPPORTED, F,
-                         "format 0x%llx is not among xrEnumerateSwapchainFormats'", (unsigned long long)ci->format);
+                         "format 0x%llx is not among xrEnumerateSwapchainFormats'",
+                         (unsigned long long)ci->format);
     if (ci->createFlags & XR_SWAPCHAIN_CREATE_PROTECTED_CONTENT_BIT)
         return rt_refuse(XR_ERROR_FEATURE_UNSUPPORTED, F, "protected content is not supported");
-    if (ci->sampleCount != 1) return rt_refuse(XR_ERROR_FEATURE_UNSUPPORTED, F, "sampleCount %u (max 1)", ci->sampleCount);
-    if (ci->faceCount != 1) return rt_refuse(XR_ERROR_FEATURE_UNSUPPORTED, F, "faceCount %u (only 1)", ci->faceCount);
+    if (ci->sampleCount != 1)
+        return rt_refuse(XR_ERROR_FEATURE_UNSUPPORTED, F, "sampleCount %u (max 1)",
+                         ci->sampleCount);
+    if (ci->faceCount != 1)
+        return rt_refuse(XR_ERROR_FEATURE_UNSUPPORTED, F, "faceCount %u (only 1)", ci->faceCount);
     if (ci->arraySize != 1)
-        return rt_refuse(ci->arraySize ? XR_ERROR_FEATURE_UNSUPPORTED : XR_ERROR_VALIDATION_FAILURE, F,
-                         "arraySize %u (this runtime makes 2D textures only)", ci->arraySize);
-    if (!ci->width || !ci->height || ci->width > (uint32_t)(4 * cfg->eye_w) || ci->height > (uint32_t)(4 * cfg->eye_h))
-        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "size %ux%u outside 1..%dx%d", ci->width, ci->height,
-                         4 * cfg->eye_w, 4 * cfg->eye_h);
+        return rt_refuse(ci->arraySize ? XR_ERROR_FEATURE_UNSUPPORTED : XR_ERROR_VALIDATION_FAILURE,
+                         F, "arraySize %u (this runtime makes 2D textures only)", ci->arraySize);
+    if (!ci->width || !ci->height || ci->width > (uint32_t)(4 * cfg->eye_w) ||
+        ci->height > (uint32_t)(4 * cfg->eye_h))
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "size %ux%u outside 1..%dx%d", ci->width,
+                         ci->height, 4 * cfg->eye_w, 4 * cfg->eye_h);
     if (!ci->mipCount) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "mipCount 0");
     rt_gl *gl = &s->gl;
     if (rt_gl_begin(gl)) return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "no OpenGL context");
     GLint prev = 0;
-    while (gl->GetError() != GL_NO_ERROR) {
-    }
+    while (gl->GetError() != GL_NO_ERROR) {}
     rt_swapchain *sc = calloc(1, sizeof *sc);
     sc->kind = RT_SWAPCHAIN;
     sc->session = s;
@@ -144,7 +157,8 @@ static XrResult XRAPI_CALL rt_CreateSwapchain(XrSession session, const XrSwapcha
         gl->DeleteTextures(RT_IMAGES_PER_SWAPCHAIN, sc->images);
         rt_gl_end(gl);
         free(sc);
-        return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "glTexStorage2D(format 0x%llx) failed with GL error 0x%x",
+        return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F,
+                         "glTexStorage2D(format 0x%llx) failed with GL error 0x%x",
                          (unsigned long long)ci->format, err);
     }
     rt_gl_end(gl);
@@ -164,39 +178,48 @@ void rt_swapchain_free(rt_swapchain *sc) {
 }
 
 static XrResult XRAPI_CALL rt_DestroySwapchain(XrSwapchain swapchain) {
+    RT_LOCKED;
     GET_SWAPCHAIN(sc, swapchain, "xrDestroySwapchain");
     rt_swapchain_free(sc);
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_EnumerateSwapchainImages(XrSwapchain swapchain, uint32_t capacity, uint32_t *countOutput,
-                                                      XrSwapchainImageBaseHeader *images) {
+static XrResult XRAPI_CALL rt_EnumerateSwapchainImages(XrSwapchain swapchain, uint32_t capacity,
+                                                       uint32_t *countOutput,
+                                                       XrSwapchainImageBaseHeader *images) {
+    RT_LOCKED;
     const char *F = "xrEnumerateSwapchainImages";
     GET_SWAPCHAIN(sc, swapchain, F);
     if (!countOutput) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "count output is NULL");
     *countOutput = RT_IMAGES_PER_SWAPCHAIN;
     if (!capacity) return XR_SUCCESS;
     if (capacity < RT_IMAGES_PER_SWAPCHAIN)
-        return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, F, "capacity %u < %d", capacity, RT_IMAGES_PER_SWAPCHAIN);
+        return rt_refuse(XR_ERROR_SIZE_INSUFFICIENT, F, "capacity %u < %d", capacity,
+                         RT_IMAGES_PER_SWAPCHAIN);
     XrSwapchainImageOpenGLKHR *gl_images = (XrSwapchainImageOpenGLKHR *)images;
     for (int i = 0; i < RT_IMAGES_PER_SWAPCHAIN; i++) {
         if (gl_images[i].type != XR_TYPE_SWAPCHAIN_IMAGE_OPENGL_KHR)
-            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "images[%d].type is not XR_TYPE_SWAPCHAIN_IMAGE_OPENGL_KHR", i);
+            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F,
+                             "images[%d].type is not XR_TYPE_SWAPCHAIN_IMAGE_OPENGL_KHR", i);
         gl_images[i].image = sc->images[i];
     }
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_AcquireSwapchainImage(XrSwapchain swapchain, const XrSwapchainImageAcquireInfo *info,
-                                                   uint32_t *index) {
+static XrResult XRAPI_CALL rt_AcquireSwapchainImage(XrSwapchain swapchain,
+                                                    const XrSwapchainImageAcquireInfo *info,
+                                                    uint32_t *index) {
+    RT_LOCKED;
     const char *F = "xrAcquireSwapchainImage";
     GET_SWAPCHAIN(sc, swapchain, F);
     if (info && info->type != XR_TYPE_SWAPCHAIN_IMAGE_ACQUIRE_INFO)
         return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "acquireInfo type is wrong");
     if (!index) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "index is NULL");
-    if (sc->session->lost) return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
+    if (sc->session->lost)
+        return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
     if (sc->queued == RT_IMAGES_PER_SWAPCHAIN)
-        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F, "all %d images are acquired and not released", RT_IMAGES_PER_SWAPCHAIN);
+        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F,
+                         "all %d images are acquired and not released", RT_IMAGES_PER_SWAPCHAIN);
     int i = sc->next_acquire;
     sc->next_acquire = (i + 1) % RT_IMAGES_PER_SWAPCHAIN;
     sc->queue[sc->queued++] = i;
@@ -204,26 +227,34 @@ static XrResult XRAPI_CALL rt_AcquireSwapchainImage(XrSwapchain swapchain, const
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_WaitSwapchainImage(XrSwapchain swapchain, const XrSwapchainImageWaitInfo *info) {
+static XrResult XRAPI_CALL rt_WaitSwapchainImage(XrSwapchain swapchain,
+                                                 const XrSwapchainImageWaitInfo *info) {
+    RT_LOCKED;
     const char *F = "xrWaitSwapchainImage";
     GET_SWAPCHAIN(sc, swapchain, F);
     RT_CHECK_TYPE(info, XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO, F);
-    if (sc->session->lost) return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
+    if (sc->session->lost)
+        return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
     if (!sc->queued) return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F, "no image is acquired");
     if (sc->head_waited)
-        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F, "the oldest acquired image was already waited and not released");
+        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F,
+                         "the oldest acquired image was already waited and not released");
     sc->head_waited = 1;
     return XR_SUCCESS;
 }
 
-static XrResult XRAPI_CALL rt_ReleaseSwapchainImage(XrSwapchain swapchain, const XrSwapchainImageReleaseInfo *info) {
+static XrResult XRAPI_CALL rt_ReleaseSwapchainImage(XrSwapchain swapchain,
+                                                    const XrSwapchainImageReleaseInfo *info) {
+    RT_LOCKED;
     const char *F = "xrReleaseSwapchainImage";
     GET_SWAPCHAIN(sc, swapchain, F);
     if (info && info->type != XR_TYPE_SWAPCHAIN_IMAGE_RELEASE_INFO)
         return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "releaseInfo type is wrong");
-    if (sc->session->lost) return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
+    if (sc->session->lost)
+        return rt_refuse(XR_ERROR_SESSION_LOST, F, "the session is in LOSS_PENDING");
     if (!sc->queued || !sc->head_waited)
-        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F, "no image was waited (xrWaitSwapchainImage) before release");
+        return rt_refuse(XR_ERROR_CALL_ORDER_INVALID, F,
+                         "no image was waited (xrWaitSwapchainImage) before release");
     sc->last_released = sc->queue[0];
     memmove(sc->queue, sc->queue + 1, sizeof(int) * (RT_IMAGES_PER_SWAPCHAIN - 1));
     sc->queued--;
@@ -232,7 +263,9 @@ static XrResult XRAPI_CALL rt_ReleaseSwapchainImage(XrSwapchain swapchain, const
 }
 
 /* ---- readback ---- */
-typedef struct { GLint tex, pack_buffer, unpack_buffer, align, row, skip_rows, skip_pixels; } saved_state;
+typedef struct {
+    GLint tex, pack_buffer, unpack_buffer, align, row, skip_rows, skip_pixels;
+} saved_state;
 
 static void save_state(rt_gl *gl, saved_state *st) {
     gl->GetIntegerv(GL_TEXTURE_BINDING_2D, &st->tex);
@@ -279,7 +312,8 @@ static int probe_srgb_readback(rt_gl *gl) {
     gl->PixelStorei(GL_UNPACK_ALIGNMENT, unpack_align);
     if (fabsf(out[0] - 128.0f / 255.0f) < 0.01f) return 1;
     if (fabsf(out[0] - 0.2158605f) < 0.01f) return 2;
-    fprintf(stderr, "[BTF test runtime] sRGB readback probe read %g (neither 0.502 nor 0.216)\n", out[0]);
+    fprintf(stderr, "[BTF test runtime] sRGB readback probe read %g (neither 0.502 nor 0.216)\n",
+            out[0]);
     return 1;
 }
 
@@ -305,8 +339,8 @@ static const char *space_name(const rt_space *sp) {
 }
 
 static void write_pose(FILE *f, const XrPosef *p) {
-    fprintf(f, "[%.9g, %.9g, %.9g, %.9g, %.9g, %.9g, %.9g]", p->position.x, p->position.y, p->position.z,
-            p->orientation.x, p->orientation.y, p->orientation.z, p->orientation.w);
+    fprintf(f, "[%.9g, %.9g, %.9g, %.9g, %.9g, %.9g, %.9g]", p->position.x, p->position.y,
+            p->position.z, p->orientation.x, p->orientation.y, p->orientation.z, p->orientation.w);
 }
 
 static void write_fov(FILE *f, const XrFovf *v) {
@@ -319,39 +353,77 @@ static int pose_ok(const XrPosef *p) {
     return fabsf(n - 1.0f) < 1e-3f; /* unit quaternions, with float rounding allowed */
 }
 
+/* a sub-image must name a live swapchain of this session that has a released image, and lie
+ * inside it */
+static XrResult check_sub_image(rt_session *s, const XrSwapchainSubImage *sub, const char *what) {
+    const char *F = "xrEndFrame";
+    rt_swapchain *sc = rt_handle_get(sub->swapchain, RT_SWAPCHAIN);
+    if (!sc || sc->session != s)
+        return rt_refuse(XR_ERROR_HANDLE_INVALID, F,
+                         "%s.swapchain is not a live XrSwapchain of this session", what);
+    if (sc->last_released < 0)
+        return rt_refuse(XR_ERROR_LAYER_INVALID, F, "%s's swapchain has no released image", what);
+    const XrRect2Di *r = &sub->imageRect;
+    if (r->offset.x < 0 || r->offset.y < 0 || r->extent.width <= 0 || r->extent.height <= 0 ||
+        (uint32_t)(r->offset.x + r->extent.width) > sc->width ||
+        (uint32_t)(r->offset.y + r->extent.height) > sc->height)
+        return rt_refuse(XR_ERROR_SWAPCHAIN_RECT_INVALID, F,
+                         "%s.imageRect (%d, %d, %d, %d) is outside the %ux%u swapchain", what,
+                         r->offset.x, r->offset.y, r->extent.width, r->extent.height, sc->width,
+                         sc->height);
+    if (sub->imageArrayIndex != 0)
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "%s.imageArrayIndex %u >= arraySize 1",
+                         what, sub->imageArrayIndex);
+    return XR_SUCCESS;
+}
+
+XrResult rt_check_quad(rt_session *s, const XrCompositionLayerQuad *quad) {
+    rt_space *space = rt_handle_get(quad->space, RT_SPACE);
+    if (!space || space->session != s)
+        return rt_refuse(XR_ERROR_HANDLE_INVALID, "xrEndFrame",
+                         "a quad layer's space is not a live XrSpace of this session");
+    if (!pose_ok(&quad->pose))
+        return rt_refuse(XR_ERROR_POSE_INVALID, "xrEndFrame",
+                         "a quad layer's pose is not a unit quaternion");
+    return check_sub_image(s, &quad->subImage, "a quad layer's subImage");
+}
+
 XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *layer, XrTime t) {
     const char *F = "xrEndFrame";
     const rt_config *cfg = &s->instance->cfg;
     rt_space *space = rt_handle_get(layer->space, RT_SPACE);
-    if (!space || space->session != s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "the projection layer's space is not a live XrSpace of this session");
+    if (!space || space->session != s)
+        return rt_refuse(XR_ERROR_HANDLE_INVALID, F,
+                         "the projection layer's space is not a live XrSpace of this session");
     if (layer->viewCount != (uint32_t)cfg->views)
-        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "the projection layer has %u views; the view configuration has %d",
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F,
+                         "the projection layer has %u views; the view configuration has %d",
                          layer->viewCount, cfg->views);
-    if (!layer->views) return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "the projection layer's views is NULL");
+    if (!layer->views)
+        return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "the projection layer's views is NULL");
     for (int i = 0; i < cfg->views; i++) {
         const XrCompositionLayerProjectionView *v = &layer->views[i];
         if (v->type != XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW)
-            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "views[%d].type is not XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW", i);
-        if (!pose_ok(&v->pose)) return rt_refuse(XR_ERROR_POSE_INVALID, F, "views[%d].pose's orientation is not a unit quaternion", i);
-        rt_swapchain *sc = rt_handle_get(v->subImage.swapchain, RT_SWAPCHAIN);
-        if (!sc || sc->session != s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "views[%d].subImage.swapchain is not a live XrSwapchain of this session", i);
-        if (sc->last_released < 0)
-            return rt_refuse(XR_ERROR_LAYER_INVALID, F, "views[%d]'s swapchain has no released image", i);
-        const XrRect2Di *r = &v->subImage.imageRect;
-        if (r->offset.x < 0 || r->offset.y < 0 || r->extent.width <= 0 || r->extent.height <= 0 ||
-            (uint32_t)(r->offset.x + r->extent.width) > sc->width || (uint32_t)(r->offset.y + r->extent.height) > sc->height)
-            return rt_refuse(XR_ERROR_SWAPCHAIN_RECT_INVALID, F, "views[%d].subImage.imageRect (%d, %d, %d, %d) is outside the %ux%u swapchain",
-                             i, r->offset.x, r->offset.y, r->extent.width, r->extent.height, sc->width, sc->height);
-        if (v->subImage.imageArrayIndex != 0)
-            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F, "views[%d].subImage.imageArrayIndex %u >= arraySize 1", i, v->subImage.imageArrayIndex);
+            return rt_refuse(XR_ERROR_VALIDATION_FAILURE, F,
+                             "views[%d].type is not XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW", i);
+        if (!pose_ok(&v->pose))
+            return rt_refuse(XR_ERROR_POSE_INVALID, F,
+                             "views[%d].pose's orientation is not a unit quaternion", i);
+        char what[48];
+        snprintf(what, sizeof what, "views[%d].subImage", i);
+        XrResult r = check_sub_image(s, &v->subImage, what);
+        if (XR_FAILED(r)) return r;
     }
     if (!t || !cfg->capture_dir[0]) return XR_SUCCESS;
 
     char path[4400], tmp[4400];
-    if (mkdirs(cfg->capture_dir)) return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "cannot make capture_dir %s", cfg->capture_dir);
+    if (mkdirs(cfg->capture_dir))
+        return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "cannot make capture_dir %s",
+                         cfg->capture_dir);
     long n = s->submitted;
     rt_gl *gl = &s->gl;
-    if (rt_gl_begin(gl)) return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "no OpenGL context for the capture");
+    if (rt_gl_begin(gl))
+        return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "no OpenGL context for the capture");
     saved_state st;
     save_state(gl, &st);
     XrPosef head, base_world, inv;
@@ -365,7 +437,10 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
         rt_gl_end(gl);
         return rt_refuse(XR_ERROR_RUNTIME_FAILURE, F, "cannot write %s", tmp);
     }
-    fprintf(js, "{\"frame\": %ld, \"display_time\": %lld, \"space\": \"%s\", \"views\": [", n, (long long)t, space_name(space));
+    fprintf(js, "{\"frame\": %ld, \"display_time\": %lld, \"space\": \"%s\", \"head\": ", n,
+            (long long)t, space_name(space));
+    write_pose(js, &head); /* the script's head pose at display_time, in world (= LOCAL) space */
+    fprintf(js, ", \"views\": [");
     for (int i = 0; i < cfg->views; i++) {
         const XrCompositionLayerProjectionView *v = &layer->views[i];
         rt_swapchain *sc = rt_handle_get(v->subImage.swapchain, RT_SWAPCHAIN);
@@ -381,7 +456,8 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
         snprintf(path, sizeof path, "%s/frame_%05ld_view_%d.f32", cfg->capture_dir, n, i);
         FILE *img = fopen(path, "wb");
         for (int y = 0; img && y < r->extent.height; y++) /* rows bottom first, as GL stores them */
-            fwrite(full + 4 * ((size_t)(r->offset.y + y) * sc->width + r->offset.x), sizeof(float) * 4, r->extent.width, img);
+            fwrite(full + 4 * ((size_t)(r->offset.y + y) * sc->width + r->offset.x),
+                   sizeof(float) * 4, r->extent.width, img);
         if (img) fclose(img);
         free(full);
         XrPosef eye, located;
@@ -392,10 +468,12 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
         write_pose(js, &v->pose);
         fprintf(js, ", \"fov\": ");
         write_fov(js, &v->fov);
-        fprintf(js, ", \"rect\": [%d, %d, %d, %d], \"format\": %lld, \"encoding\": \"%s\", \"width\": %u, \"height\": %u, "
-                    "\"image_index\": %d, \"file\": \"frame_%05ld_view_%d.f32\", \"located_pose\": ",
-                r->offset.x, r->offset.y, r->extent.width, r->extent.height, (long long)sc->format, encoding, sc->width,
-                sc->height, sc->last_released, n, i);
+        fprintf(js,
+                ", \"rect\": [%d, %d, %d, %d], \"format\": %lld, \"encoding\": \"%s\", \"width\": "
+                "%u, \"height\": %u, "
+                "\"image_index\": %d, \"file\": \"frame_%05ld_view_%d.f32\", \"located_pose\": ",
+                r->offset.x, r->offset.y, r->extent.width, r->extent.height, (long long)sc->format,
+                encoding, sc->width, sc->height, sc->last_released, n, i);
         write_pose(js, &located);
         fprintf(js, ", \"located_fov\": ");
         write_fov(js, &located_fov);
