@@ -489,8 +489,9 @@ class XRSession:
         if self.egl is not None and self.egl.context is not None:
             self.egl.make_current()
         for chain in self.swapchains:
-            for obj in (*chain.framebuffers, *chain.textures):
-                _quietly(obj.release)
+            for fbo in chain.framebuffers:  # ours; the textures are the runtime's to delete
+                _quietly(fbo.release)
+            chain.framebuffers, chain.textures = [], []
             _quietly(openxr.destroy_swapchain, chain.handle)
         self.swapchains = []
         if self.space is not None:
