@@ -66,7 +66,12 @@ def add_parser(sub) -> None:
         default="generic-2016x2240",
         help="headset profile for what the runtime does not report",
     )
-    p.add_argument("--no-hud", action="store_true", help="no status text in the eyes")
+    p.add_argument(
+        "--hud",
+        action="store_true",
+        help="show the status panel in the eyes (off by default: the images, and captures, "
+        "then hold the scene alone, as an independent render of the same views does)",
+    )
     p.set_defaults(func=cmd_bridge)
 
 
@@ -102,7 +107,7 @@ def cmd_bridge(args) -> int:
         exposure=args.exposure,
         resolution_scale=args.scale,
         profile=args.profile,
-        show_hud=not args.no_hud,
+        show_hud=args.hud,
         capture_dir=args.capture.resolve() if args.capture else None,
         converge=args.converge,
     )

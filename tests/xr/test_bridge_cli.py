@@ -50,7 +50,7 @@ def test_bridge_runs_frames_prints_what_it_used_and_captures(xr_runtime, blend, 
     cap = tmp_path / "cap"
     proc = run_cli(
         "bridge", "--blend", blend, "--frames", "6", "--capture", cap, "--converge",
-        "--lights", "8", "--no-hud", env=cli_env(),
+        "--lights", "8", env=cli_env(),
     )  # fmt: skip
     out = proc.stdout
     assert "runtime: BTF test runtime" in out
