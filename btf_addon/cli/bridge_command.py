@@ -19,8 +19,10 @@ from ..render.settings import RenderSettings
 DESCRIPTION = """\
 Run the XTAL bridge on a .blend's active scene against the OpenXR runtime the loader finds
 (set XR_RUNTIME_JSON to choose one): per eye, the progressive BTF drawer with K lights per
-frame within the runtime's frame period, submitted to the headset. The viewer starts at the
-scene camera's location, facing its heading.
+frame within the runtime's frame period, submitted to the headset. --place says where the
+runtime's space lies in the scene: "space" (default) uses the reported poses as scene
+coordinates; "camera" puts the head at the scene camera, facing its heading, +y up turned to
+the scene's +z (what a worn headset needs).
 
 --capture DIR writes, per submitted frame and eye, the linear image (EXR) and a JSON with the
 eye's pose and FOV as submitted, the matrices drawn with, lights so far, exposure, eye size
@@ -67,6 +69,14 @@ def add_parser(sub) -> None:
         help="headset profile for what the runtime does not report",
     )
     p.add_argument(
+        "--place",
+        choices=("space", "camera"),
+        default="space",
+        help="space (default): the runtime's reference space is the scene's world, poses used "
+        "as reported; camera: the head starts at the scene camera, facing its heading, +y up "
+        "turned to +z up (as Blender's VR session; for wearing a headset)",
+    )
+    p.add_argument(
         "--hud",
         action="store_true",
         help="show the status panel in the eyes (off by default: the images, and captures, "
@@ -110,6 +120,7 @@ def cmd_bridge(args) -> int:
         show_hud=args.hud,
         capture_dir=args.capture.resolve() if args.capture else None,
         converge=args.converge,
+        placement=args.place,
     )
     for message in scene.messages:
         print(f"note: {message}", file=sys.stderr)

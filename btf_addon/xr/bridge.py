@@ -13,12 +13,18 @@ moved (``view_moved``), the resolve drawn into the acquired swapchain image (siz
 resolve fetches at the fragment's own coordinates) with GL_FRAMEBUFFER_SRGB on for an sRGB
 swapchain (our output is linear), and the HUD quad fixed to the head.
 
-Where the scene is: the runtime's reference space (STAGE, else LOCAL; +y up, metres) is placed
-in the scene as Blender's VR session places it by default (base pose "Scene Camera", no
-absolute tracking): the viewer's first located head position (the mid-point of the eyes) goes
-to the scene camera's location, the space's −z (forward) to the camera's heading about the
-world's +Z, its +y to the world's +Z; the camera's pitch and roll are not used (a tilted world
-makes people sick). Captures record this ``world_from_space`` and each eye's matrices.
+Where the scene is (``BridgeSettings.placement``):
+- ``"space"`` (default): the runtime's reference space (STAGE, else LOCAL) IS the scene's world:
+  a located pose is used as the eye's world pose as it is, so the images are exactly "the scene
+  seen from the poses the runtime reported" (what an independent render of a capture takes).
+  OpenXR spaces are +y up and Blender's world +z up: a real headset then sees the scene lying
+  on its side, unless its poses are expressed for that (a test runtime's scripted head).
+- ``"camera"``: as Blender's VR session places a headset by default (base pose "Scene Camera",
+  no absolute tracking): the viewer's first located head position (the mid-point of the eyes)
+  goes to the scene camera's location, the space's −z (forward) to the camera's heading about
+  the world's +Z, its +y to the world's +Z; the camera's pitch and roll are not used (a tilted
+  world makes people sick). For wearing a headset.
+Captures record ``world_from_space`` and each eye's matrices either way.
 """
 
 from __future__ import annotations
@@ -70,6 +76,7 @@ log = logging.getLogger(__name__)
 EYES = ("left", "right")
 HUD_REFRESH_S = 0.25  # re-rasterise the HUD's text 4× a second at most
 IDLE_WAIT_S = 0.005  # between polls while the session is not running yet
+PLACEMENTS = ("space", "camera")
 START_TIMEOUT_S = 30.0  # run_bridge: no frame by then → the session never started
 STOP_TIMEOUT_S = 10.0  # run_bridge: the runtime never ended the session after the request
 # OpenXR's spaces are +y up, Blender's world +z up: (x, y, z) → (x, −z, y).
@@ -85,7 +92,8 @@ class BridgeSettings:
     time to hold (None: the runtime's predicted display period); ``profile``: the headset
     profile (render/headsets.py) used for what the runtime does not report; ``capture_dir``:
     write each submitted eye image (xr/capture.py); ``converge``: hold the first located
-    pose until every light is in."""
+    pose until every light is in; ``placement``: where the runtime's space lies in the scene
+    (module docstring: "space", the default, or "camera")."""
 
     lights_total: int = 200
     exposure: float = 0.0
@@ -95,6 +103,7 @@ class BridgeSettings:
     show_hud: bool = True
     capture_dir: Path | None = None
     converge: bool = False
+    placement: str = "space"  # "space" or "camera" (module docstring)
 
 
 @dataclass(frozen=True)
@@ -161,6 +170,8 @@ class XRBridge:
         self.profile = headset_profile(settings.profile)  # ValueError for an unknown name
         if settings.lights_total < 1:
             raise ValueError(f"lights_total must be >= 1, got {settings.lights_total}")
+        if settings.placement not in PLACEMENTS:
+            raise ValueError(f"placement must be one of {PLACEMENTS}, got {settings.placement!r}")
         self.settings = settings
         self.render_settings = replace(
             render_settings, lights_total=settings.lights_total, progressive=True
@@ -390,8 +401,11 @@ class XRBridge:
         return (near, far) if 0 < near < far else (0.05, 100.0)
 
     def _place_space(self) -> None:
-        """``world_from_space`` from the first located pair of views (the session locates
-        both before it draws either)."""
+        """``world_from_space``: identity ("space"), or from the first located pair of views
+        ("camera"; the session locates both before it draws either)."""
+        if self.settings.placement == "space":
+            self.world_from_space = np.eye(4)
+            return
         views = self.session.located
         head = np.mean([v.position for v in views], axis=0)
         self.world_from_space = world_from_space(self._scene.camera.world_from_camera, head)

@@ -23,7 +23,7 @@ from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 EYE = (48, 36)
 CAMERA_AT = np.array([0.0, -4.0, 0.3])
-HEAD = [0.0, 1.6, 0.0]  # standing, in the runtime's +y-up space
+STANDING = [0.0, 1.6, 0.0]  # a head in a real runtime's +y-up space ("camera" placement)
 IPD = 0.064
 FOV_LEFT = [-0.80, 0.70, 0.78, -0.78]
 FOV_RIGHT = [-0.70, 0.80, 0.78, -0.78]
@@ -51,9 +51,29 @@ def small_scene(rng) -> Scene:
     )
 
 
-def head(dx: float = 0.0, yaw: float = 0.0) -> list[float]:
-    """A head pose [x, y, z, qx, qy, qz, qw]: ``dx`` metres right, ``yaw`` radians left."""
-    return [HEAD[0] + dx, HEAD[1], HEAD[2], 0.0, math.sin(yaw / 2), 0.0, math.cos(yaw / 2)]
+def quat_mul(a, b) -> list[float]:
+    """Hamilton product of quaternions (x, y, z, w): the rotation b, then a."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return [
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    ]
+
+
+def head(dx: float = 0.0, yaw: float = 0.0, placement: str = "space") -> list[float]:
+    """A head pose [x, y, z, qx, qy, qz, qw], ``dx`` metres right and turned ``yaw`` radians
+    left of looking at the sphere. "space": in the scene's own coordinates (+z up): at the
+    scene camera, turned +90° about x so that its −z looks along +Y. "camera": standing in a
+    +y-up space looking down −z, as a real runtime reports a head."""
+    half = yaw / 2
+    if placement == "space":
+        upright = [math.sin(math.pi / 4), 0.0, 0.0, math.cos(math.pi / 4)]
+        q = quat_mul([0.0, 0.0, math.sin(half), math.cos(half)], upright)
+        return [CAMERA_AT[0] + dx, CAMERA_AT[1], CAMERA_AT[2], *q]
+    return [STANDING[0] + dx, STANDING[1], STANDING[2], 0.0, math.sin(half), 0.0, math.cos(half)]
 
 
 def script(xr_runtime, **overrides):
@@ -89,24 +109,30 @@ def rotation(q) -> np.ndarray:
     )
 
 
-def world_from_eye(pose, first_head) -> np.ndarray:
-    """Where the bridge's documentation says an eye is: the runtime's space turned +y-up →
-    +z-up, the first head position moved onto the scene camera (heading 0 here)."""
+def world_from_eye(pose, placement: str, first_head) -> np.ndarray:
+    """Where the bridge's documentation says an eye is. "space": the pose as it is.
+    "camera": the runtime's space turned +y-up → +z-up, the first head position moved onto
+    the scene camera (heading 0 here)."""
     eye_in_space = np.eye(4)
     eye_in_space[:3, :3] = rotation(pose[3:])
-    eye_in_space[:3, 3] = np.subtract(pose[:3], first_head)
+    eye_in_space[:3, 3] = pose[:3]
+    if placement == "space":
+        return eye_in_space
+    eye_in_space[:3, 3] -= first_head
     zup = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], dtype=float)
     to_camera = np.eye(4)
     to_camera[:3, 3] = CAMERA_AT
     return to_camera @ zup @ eye_in_space
 
 
-def independent_render(gl_ctx, scene, pose, fov, first_head, lights_total) -> np.ndarray:
+def independent_render(
+    gl_ctx, scene, pose, fov, lights_total, placement="space", first_head=None
+) -> np.ndarray:
     """(h, w, 3) float32 linear, row 0 at the bottom: all lights at once."""
     from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
     from btf_addon.gl.moderngl_device import ModernGLDevice
 
-    world_from_view = world_from_eye(pose, first_head)
+    world_from_view = world_from_eye(pose, placement, first_head)
     clip_from_view = projection_from_fov(EyeFov(*fov), scene.camera.clip_start, 50.0)
     device = ModernGLDevice(gl_ctx)
     drawer = ProgressiveDrawer(device, scene)
@@ -165,27 +191,35 @@ def test_session_reaches_focused_submits_stereo_frames_and_ends_cleanly(xr_runti
     assert frames[0].views[1].fov == pytest.approx(FOV_RIGHT, abs=1e-6)
 
 
+@pytest.mark.parametrize("placement", ["space", "camera"])
 def test_submitted_images_equal_an_independent_render_of_the_submitted_poses(
-    xr_runtime, rng, gl_ctx
+    xr_runtime, rng, gl_ctx, placement
 ):
     """--converge: the first located pose is held while the lights accumulate (the head moves
     every frame in the script); the last frame submitted with it has all 8 lights in, and each
-    eye then equals a render of that pose with all lights at once, within sRGB 8-bit
-    quantisation."""
+    eye then equals a render of that pose with all lights at once (placed in the scene as the
+    documentation says), within sRGB 8-bit quantisation."""
     from btf_addon.xr.bridge import run_bridge
 
-    path = [head(0.01 * i, 0.02 * i) for i in range(12)]
+    path = [head(0.01 * i, 0.02 * i, placement) for i in range(12)]
     script(xr_runtime, head=path)
     scene = small_scene(rng)
     # A large budget: K grows every frame, so 8 lights are in within a few frames.
-    run_bridge(scene, RenderSettings(), settings(converge=True, budget_s=10.0), frames=8)
+    run_bridge(
+        scene,
+        RenderSettings(),
+        settings(converge=True, budget_s=10.0, placement=placement),
+        frames=8,
+    )
     frames = xr_runtime.captured()
     held = [f for f in frames if f.views[0].pose == pytest.approx(frames[0].views[0].pose)]
     assert 2 <= len(held) < len(frames), "the pose was not held, or never released"
     assert held == frames[: len(held)]  # held from the first frame on, then released
     converged = held[-1]
     for view in converged.views:
-        ours = independent_render(gl_ctx, scene, view.pose, view.fov, np.array(HEAD), 8)
+        ours = independent_render(
+            gl_ctx, scene, view.pose, view.fov, 8, placement, np.array(STANDING)
+        )
         diff = np.abs(encoded(view.image[..., :3]) - encoded(ours))
         assert diff.max() <= SRGB_TOLERANCE, diff.max()
         assert ours.mean() > 0.02  # the sphere and floor are in view, not a black frame
@@ -324,7 +358,7 @@ def test_linear_swapchain_formats_get_linear_values(xr_runtime, rng, gl_ctx, fmt
     held = [f for f in frames if f.views[0].pose == pytest.approx(frames[0].views[0].pose)]
     view = held[-1].views[0]  # the last frame of the held pose: all lights in
     assert view.format == fmt, name
-    ours = independent_render(gl_ctx, scene, view.pose, view.fov, np.array(HEAD), 8)
+    ours = independent_render(gl_ctx, scene, view.pose, view.fov, 8)
     if fmt == 0x8058:  # UNORM: clamped to [0, 1], half a step of rounding
         assert np.abs(np.clip(ours, 0, 1) - view.image[..., :3]).max() <= 0.5 / 255 + 1e-6
     else:  # half float: 11 significant bits; one ulp (2^-10 ≈ 9.8e-4 relative) covers

@@ -4,6 +4,7 @@ captures, and the exit codes of the faults (messages without tracebacks)."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -39,8 +40,13 @@ def blend(tmp_path_factory):
     return path
 
 
+# The head at the .blend's camera, turned +90° about x: looking along +Y at the sphere (poses
+# are scene coordinates under the default --place space).
+HEAD = [0.0, -4.0, 0.3, math.sin(math.pi / 4), 0.0, 0.0, math.cos(math.pi / 4)]
+
+
 def script(xr_runtime, **overrides):
-    values = {"eye_size": [40, 30], "display_period_s": 0.01}
+    values = {"eye_size": [40, 30], "display_period_s": 0.01, "head": [HEAD]}
     values.update(overrides)
     return xr_runtime.script(**values)
 
@@ -69,6 +75,8 @@ def test_bridge_runs_frames_prints_what_it_used_and_captures(xr_runtime, blend, 
             a = srgb_encode(np.clip(image, 0, 1))
             b = srgb_encode(np.clip(view.image[..., :3], 0, 1))
             assert np.abs(a - b).max() <= SRGB_TOLERANCE
+    # The sphere is in view: a grey World around a shaded ball, not a uniform image.
+    assert read_exr(cap / "frame_00005_left.exr").std() > 0.02
     # The head is still and --converge holds it: the lights accumulate frame after frame.
     done = [
         json.loads((cap / f"frame_{n:05d}_left.json").read_text())["lights_done"] for n in range(6)
