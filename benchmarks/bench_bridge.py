@@ -80,7 +80,10 @@ def frame_time(scene, work: Path, size: tuple[int, int], k: int) -> tuple[float,
         json.dumps({"eye_size": list(size), "display_period_s": 0.001, "head": moving_head(64)})
     )
     os.environ["BTF_XR_TEST_SCRIPT"] = str(script)
-    bridge = XRBridge(scene, RenderSettings(), BridgeSettings(lights_total=4096, show_hud=False))
+    # "camera": the head (a real runtime's +y-up pose) starts at the scene camera, looking at
+    # the sphere as the viewport benchmark's camera does.
+    settings = BridgeSettings(lights_total=4096, show_hud=False, placement="camera")
+    bridge = XRBridge(scene, RenderSettings(), settings)
     drawing = [0.0]
     draw_eye = bridge._draw_eye
 
