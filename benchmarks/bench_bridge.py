@@ -90,7 +90,7 @@ def frame_time(scene, work: Path, size: tuple[int, int], k: int) -> tuple[float,
     def timed_draw_eye(*args):
         t0 = time.perf_counter()
         result = draw_eye(*args)
-        bridge.egl.ctx.finish()
+        bridge.gl.ctx.finish()
         drawing[0] += time.perf_counter() - t0
         return result
 
@@ -101,11 +101,11 @@ def frame_time(scene, work: Path, size: tuple[int, int], k: int) -> tuple[float,
             eye.budget = PinnedK(k)
         while bridge.frames < 1:  # warm-up: session running, programs compiled
             bridge.run_frame()
-        bridge.egl.ctx.finish()
+        bridge.gl.ctx.finish()
         t0, start, drawing[0] = time.perf_counter(), bridge.frames, 0.0
         while bridge.frames < start + FRAMES:
             bridge.run_frame()
-        bridge.egl.ctx.finish()
+        bridge.gl.ctx.finish()
         seconds = (time.perf_counter() - t0) / FRAMES
         bridge.request_stop()
         while bridge.run_frame():

@@ -184,7 +184,7 @@ class XRBridge:
         self._edits: list = []  # controllers.actions.Edit (made by the ControlMap)
         self.control_map = controls
         self._status = BridgeStatus(values_from="runtime")
-        self.egl = self.session = self.device = self.drawer = self.hud = self.controls = None
+        self.gl = self.session = self.device = self.drawer = self.hud = self.controls = None
         self.eyes: list[_Eye] = []
         self.world_from_space: np.ndarray | None = None
         self.frames = 0  # submitted frames
@@ -222,20 +222,14 @@ class XRBridge:
         """Context, OpenXR session, drawer. Raises BridgeError subclasses (and releases what
         was made)."""
         from ..gl.moderngl_device import ModernGLDevice
-        from .egl import EGLContext, EGLError
         from .session import XRSession
 
         try:
-            try:
-                self.egl = EGLContext()
-            except EGLError as exc:
-                raise UnsupportedRuntimeError(
-                    f"no headless OpenGL 3.3 context through EGL for the session: {exc}"
-                ) from None
             size = (self.profile.eye_width, self.profile.eye_height)
-            self.session = XRSession(self.egl, self.settings.resolution_scale, size)
+            self.session = XRSession(self.settings.resolution_scale, size)
             self.session.open()
-            self.device = ModernGLDevice(self.egl.ctx)
+            self.gl = self.session.gl
+            self.device = ModernGLDevice(self.gl.ctx)
             self.drawer = ProgressiveDrawer(self.device, self._scene)
             budget = self.settings.budget_s or self.profile.frame_budget_s
             self.eyes = [_Eye(FrameBudget(budget, clock=self.clock)) for _ in EYES]
@@ -355,7 +349,7 @@ class XRBridge:
         return view_used
 
     def _resolve_into(self, eye: _Eye, index: int, view, clip_from_view) -> None:
-        ctx = self.egl.ctx
+        ctx = self.gl.ctx
         srgb = self.session.srgb
         if srgb:  # our output is linear: the hardware encodes into the sRGB image
             ctx.enable_direct(GL_FRAMEBUFFER_SRGB)
@@ -503,8 +497,8 @@ class XRBridge:
         if self.controls is not None:
             self.controls.close()
             self.controls = None
-        if self.egl is not None and self.egl.context is not None:
-            self.egl.make_current()
+        if self.gl is not None and self.gl.context is not None:
+            self.gl.make_current()
         for eye in self.eyes:
             if eye.view is not None:
                 eye.view.release()
@@ -519,10 +513,8 @@ class XRBridge:
             self.device.close()
             self.device = None
         if self.session is not None:
-            self.session.close()
-        if self.egl is not None:
-            self.egl.close()
-            self.egl = None
+            self.session.close()  # closes the GL context last
+        self.gl = None
         if not self.ended:
             self._publish("closed")
 

@@ -21,7 +21,7 @@ import os
 import sys
 from collections.abc import Callable
 
-from .bindings import egl_binding
+from .desktop_gl import desktop_kind, make_context
 from .errors import (
     BridgeError,
     NoHeadsetError,
@@ -63,7 +63,8 @@ def _runtime_hint() -> str:
 
 
 class XRSession:
-    """instance → system → session → space → swapchains over an EGL context (xr/egl.py).
+    """instance → GL context (xr/desktop_gl.py: EGL where the runtime offers
+    XR_MNDX_egl_enable) → system → session → space → swapchains.
 
     ``open()`` makes them all (BridgeError subclasses when something is missing); ``frame``
     runs one frame; ``close()`` releases in reverse. One thread: the one the context is current
@@ -71,17 +72,18 @@ class XRSession:
 
     def __init__(
         self,
-        egl,
         resolution_scale: float = 1.0,
         fallback_size: tuple[int, int] = (2016, 2240),
         app_name: str = APP_NAME,
     ):
         """``fallback_size``: per-eye pixels used where the runtime recommends none (0×0),
-        from the bridge's headset profile; ``from_profile`` then lists it."""
+        from the bridge's headset profile; ``from_profile`` then lists it. ``gl``: the
+        OpenGL context, made by ``open`` once the runtime's bindings are known."""
         if not resolution_scale > 0:
             raise ValueError(f"resolution scale must be positive, got {resolution_scale}")
         self.xr = _openxr()
-        self.egl = egl
+        self.gl = None
+        self.binding_kind = ""
         self.resolution_scale = float(resolution_scale)
         self.app_name = app_name
         self.fallback_size = fallback_size
@@ -149,13 +151,22 @@ class XRSession:
                 f"the OpenXR runtime offers no OpenGL graphics binding ({KHR_OPENGL}); the "
                 f"bridge draws with OpenGL. Offered: {', '.join(sorted(names)) or 'none'}"
             )
-        if MNDX_EGL not in names:
-            raise UnsupportedRuntimeError(
-                f"the OpenXR runtime offers {KHR_OPENGL} but not {MNDX_EGL}: this bridge "
-                "draws in a headless EGL context. Bindings to a desktop context (WGL on "
-                "Windows, GLX on a Linux desktop: xr/bindings.py) are written per the "
-                "specification but untested and not wired to a window here"
+        if MNDX_EGL in names:
+            self.binding_kind = "egl"
+        else:
+            self.binding_kind = desktop_kind() or ""
+            if not self.binding_kind:
+                raise UnsupportedRuntimeError(
+                    f"the OpenXR runtime offers {KHR_OPENGL} but not {MNDX_EGL}, and there is "
+                    "no desktop here for its WGL/GLX binding: the bridge draws headless only "
+                    f"through {MNDX_EGL} (Monado offers it)"
+                )
+            log.warning(
+                "the runtime offers no %s: using a hidden window's %s context (untested)",
+                MNDX_EGL,
+                self.binding_kind.upper(),
             )
+        enabled = [KHR_OPENGL] + ([MNDX_EGL] if self.binding_kind == "egl" else [])
         info = openxr.InstanceCreateInfo(
             application_info=openxr.ApplicationInfo(
                 application_name=self.app_name,
@@ -163,7 +174,7 @@ class XRSession:
                 engine_name="btf_materials",
                 engine_version=1,
             ),
-            enabled_extension_names=[KHR_OPENGL, MNDX_EGL],
+            enabled_extension_names=enabled,
         )
         self.instance = self._call(
             "xrCreateInstance",
@@ -175,6 +186,12 @@ class XRSession:
         props = self._call("xrGetInstanceProperties", openxr.get_instance_properties, self.instance)
         name = props.runtime_name
         self.runtime_name = name.decode() if isinstance(name, bytes) else str(name)
+        try:
+            self.gl = make_context(self.binding_kind)
+        except (RuntimeError, OSError, ImportError) as exc:
+            raise UnsupportedRuntimeError(
+                f"no OpenGL 3.3 context for the {self.binding_kind.upper()} binding: {exc}"
+            ) from None
 
     def _get_system(self) -> None:
         openxr = self.xr
@@ -250,19 +267,19 @@ class XRSession:
             self.instance,
             self.system_id,
         )
-        ours = self.egl.ctx.version_code  # e.g. 450
+        ours = self.gl.ctx.version_code  # e.g. 450
         low = _gl_version(req.min_api_version_supported)
         if ours < low:
             raise UnsupportedRuntimeError(
                 f"the runtime needs OpenGL {low // 100}.{low % 100 // 10} or newer; this "
                 f"context has {ours // 100}.{ours % 100 // 10}"
             )
-        self._binding = egl_binding(self.egl)
+        self._binding = self.gl.binding()
         info = openxr.SessionCreateInfo(
             next=ctypes.cast(ctypes.pointer(self._binding), ctypes.c_void_p),
             system_id=self.system_id,
         )
-        self.egl.make_current()
+        self.gl.make_current()
         self.session = self._call("xrCreateSession", openxr.create_session, self.instance, info)
 
     def _create_space(self) -> None:
@@ -297,7 +314,7 @@ class XRSession:
             )
         self.format, self.srgb = chosen, FORMATS[chosen][1]
         dtype = FORMATS[chosen][0]
-        ctx = self.egl.ctx
+        ctx = self.gl.ctx
         for (w, h), (max_w, max_h) in zip(self.recommended, self._max, strict=True):
             width = min(max(1, round(w * self.resolution_scale)), max_w or w)
             height = min(max(1, round(h * self.resolution_scale)), max_h or h)
@@ -312,7 +329,7 @@ class XRSession:
                 array_size=1,
                 mip_count=1,
             )
-            self.egl.make_current()
+            self.gl.make_current()
             handle = self._call("xrCreateSwapchain", openxr.create_swapchain, self.session, info)
             images = self._call(
                 "xrEnumerateSwapchainImages",
@@ -464,7 +481,7 @@ class XRSession:
                 openxr.SwapchainImageWaitInfo(timeout=openxr.INFINITE_DURATION),
             )
             try:
-                self.egl.make_current()
+                self.gl.make_current()
                 drawn = draw_eye(index, views[index], chain, chain.framebuffers[image])
             finally:
                 self._call("xrReleaseSwapchainImage", openxr.release_swapchain_image, chain.handle)
@@ -486,8 +503,8 @@ class XRSession:
         """Release in reverse order; each step's failure is logged, never raised (a lost
         session may refuse some of them)."""
         openxr = self.xr
-        if self.egl is not None and self.egl.context is not None:
-            self.egl.make_current()
+        if self.gl is not None and self.gl.context is not None:
+            self.gl.make_current()
         for chain in self.swapchains:
             for fbo in chain.framebuffers:  # ours; the textures are the runtime's to delete
                 _quietly(fbo.release)
@@ -503,6 +520,9 @@ class XRSession:
         self.space = self.session = self.instance = None
         self._binding = None
         self.running = False
+        if self.gl is not None:  # after the session: the runtime used it until then
+            self.gl.close()
+            self.gl = None
 
 
 def _reraise(exc):

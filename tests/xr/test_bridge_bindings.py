@@ -7,6 +7,7 @@ from __future__ import annotations
 import ctypes
 import shutil
 import subprocess
+import sys
 
 import pytest
 
@@ -114,3 +115,25 @@ def test_egl_binding_carries_the_contexts_handles():
         assert b.get_proc_address == egl.get_proc_address != 0
     finally:
         egl.close()
+
+
+def test_the_egl_context_offers_its_binding(monkeypatch):
+    """The session's context factory (xr/desktop_gl.py): EGL's context carries the binding
+    for its own handles; without a display no desktop binding is offered on Linux."""
+    from btf_addon.xr.desktop_gl import desktop_kind, make_context
+    from btf_addon.xr.egl import EGLError
+
+    try:
+        context = make_context("egl")
+    except EGLError as exc:
+        pytest.skip(f"no EGL here: {exc}")
+    try:
+        b = context.binding()
+        assert b.type == bindings.XR_TYPE_GRAPHICS_BINDING_EGL_MNDX
+        assert b.context == context.context and context.ctx.version_code >= 330
+    finally:
+        context.close()
+    assert context.context is None
+    monkeypatch.delenv("DISPLAY", raising=False)
+    if sys.platform.startswith("linux"):
+        assert desktop_kind() is None
