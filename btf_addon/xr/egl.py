@@ -5,8 +5,8 @@ config, context) and ``eglGetProcAddress``; this module makes such a context wit
 window (Mesa's surfaceless platform where offered, else the default display), makes it
 current with no surface (``EGL_KHR_surfaceless_context``), and attaches moderngl to it, so
 the drawer (gl/moderngl_device.py) draws in the very context the runtime's swapchain images
-belong to. Linux only (libEGL); Windows and GLX desktops use the handles of a context made
-elsewhere (xr/bindings.py).
+belong to. Linux only (libEGL); runtimes without the EGL binding get a desktop context
+(xr/desktop_gl.py).
 """
 
 from __future__ import annotations
