@@ -131,7 +131,6 @@ class _Eye:
     lights_key: tuple | None = None
     drawn: int = 0
     held: object = None  # the LocatedView held while converging
-    last_k: int = 0
     hud_lines: list[str] = field(default_factory=list)
     hud_image: np.ndarray | None = None
     hud_time: float = -1.0
@@ -342,7 +341,6 @@ class XRBridge:
             drawer.restart(view, clip_from_world, [*world_from_view[:3, 3], 1.0])
         view.state.per_pass = max(1, int(k))
         eye.drawn = drawer.add_batch(view)
-        eye.last_k = int(k)
 
         framebuffer.use()  # the acquired swapchain image (viewport: the whole image)
         self._resolve_into(eye, index, view, clip_from_view)
