@@ -42,6 +42,8 @@ class TestRuntime:
     points XR_RUNTIME_JSON / BTF_XR_TEST_SCRIPT at it; ``captured()`` reads the submitted frames.
     """
 
+    __test__ = False  # a fixture's object, not a test class
+
     def __init__(self, manifest: Path, tmp_path: Path, monkeypatch):
         self.manifest = manifest
         self.dir = tmp_path / "xr_runtime"

@@ -37,6 +37,7 @@ S = xr.SessionState
 # 0.5/255 * d(decode)/dv <= 0.5/255 * 2.4/1.055 * 1 ~= 0.0045 in linear units (slope max at 1).
 SRGB8_TOL = 0.005
 RGBA16F_TOL = 1e-3  # half floats: 11-bit mantissa, relative error 2^-11 ~ 5e-4 below 1.0
+GL_RGBA8UI = 0x8D7C  # an integer format: glGetTexImage(GL_RGBA, GL_FLOAT) cannot read it
 
 
 class SkippingApp(App):
@@ -206,6 +207,7 @@ def test_two_frames_reach_focused_and_read_back_as_cleared_with_the_scripted_pos
             np.testing.assert_allclose(view.pose[:3], expected, atol=1e-5)  # float32 poses
             np.testing.assert_allclose(view.pose[3:], head_q, atol=1e-6)
             np.testing.assert_allclose(view.located_pose, view.pose, atol=1e-6)
+            assert view.readback_ok
     # the default FOVs are asymmetric, the outer side wider
     left, right = frames[0].views[0].fov, frames[0].views[1].fov
     assert -left[0] > left[1] and right[1] > -right[0]
@@ -656,3 +658,32 @@ def test_actions_exist_but_no_controller_is_ever_active(xr_runtime, app_factory)
     xr.destroy_action_set(action_set)  # its actions go with it
     with pytest.raises(xr.HandleInvalidError):
         xr.get_action_state_boolean(app.session, xr.ActionStateGetInfo(action=select))
+
+
+def test_an_unreadable_format_is_captured_as_zeros_and_said_so(xr_runtime, app_factory, capfd):
+    xr_runtime.script(formats=[GL_RGBA8UI])
+    app = app_factory()
+    app.start()
+    app.poll()
+    app.begin()
+    space = app.space()
+    sc, _ = app.swapchain(GL_RGBA8UI, 8, 8)
+    xr.acquire_swapchain_image(sc, xr.SwapchainImageAcquireInfo())
+    xr.wait_swapchain_image(sc, xr.SwapchainImageWaitInfo(timeout=0))
+    xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+    state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+    xr.begin_frame(app.session, xr.FrameBeginInfo())
+    rect = xr.Rect2Di(extent=xr.Extent2Di(8, 8))
+    view = xr.CompositionLayerProjectionView(
+        pose=xr.Posef(),
+        fov=xr.Fovf(-0.5, 0.5, 0.5, -0.5),
+        sub_image=xr.SwapchainSubImage(swapchain=sc, image_rect=rect),
+    )
+    layer = xr.CompositionLayerProjection(space=space, views=[view, view])
+    xr.end_frame(
+        app.session,
+        xr.FrameEndInfo(display_time=state.predicted_display_time, layers=[ctypes.byref(layer)]),
+    )
+    views = xr_runtime.captured()[0].views
+    assert not views[0].readback_ok and not views[0].image.any()
+    assert "captured as zeros" in capfd.readouterr().err

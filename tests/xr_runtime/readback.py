@@ -28,6 +28,7 @@ class View:
     encoding: str  # what the file held: "srgb" (decoded here) or "linear"
     located_pose: tuple  # what xrLocateViews reports for this display time and space
     located_fov: tuple
+    readback_ok: bool = True  # False: glGetTexImage failed (the image is zeros; see stderr)
 
 
 @dataclass
@@ -65,6 +66,7 @@ def read_capture(directory: Path) -> list[Frame]:
                     encoding=v.get("encoding", "linear"),
                     located_pose=tuple(v.get("located_pose", ())),
                     located_fov=tuple(v.get("located_fov", ())),
+                    readback_ok=v.get("readback_ok", True),
                 )
             )
         frames.append(frame)

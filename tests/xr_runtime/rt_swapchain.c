@@ -450,9 +450,17 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
             if (!gl->srgb_readback) gl->srgb_readback = probe_srgb_readback(gl);
             encoding = gl->srgb_readback == 1 ? "srgb" : "linear";
         }
-        float *full = malloc(sizeof(float) * 4 * sc->width * sc->height);
+        float *full = calloc((size_t)4 * sc->width * sc->height, sizeof(float));
+        while (gl->GetError() != GL_NO_ERROR) { /* errors of the app's own calls: not ours */
+        }
         gl->BindTexture(GL_TEXTURE_2D, sc->images[sc->last_released]);
         gl->GetTexImage(GL_TEXTURE_2D, 0, GL_RGBA, GL_FLOAT, full);
+        GLenum err = gl->GetError();
+        if (err != GL_NO_ERROR) /* e.g. an integer format: the file holds zeros */
+            fprintf(stderr,
+                    "[BTF test runtime] xrEndFrame: glGetTexImage(format 0x%llx) failed with GL "
+                    "error 0x%x; frame %ld view %d is captured as zeros\n",
+                    (unsigned long long)sc->format, err, n, i);
         snprintf(path, sizeof path, "%s/frame_%05ld_view_%d.f32", cfg->capture_dir, n, i);
         FILE *img = fopen(path, "wb");
         for (int y = 0; img && y < r->extent.height; y++) /* rows bottom first, as GL stores them */
@@ -471,9 +479,11 @@ XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *lay
         fprintf(js,
                 ", \"rect\": [%d, %d, %d, %d], \"format\": %lld, \"encoding\": \"%s\", \"width\": "
                 "%u, \"height\": %u, "
-                "\"image_index\": %d, \"file\": \"frame_%05ld_view_%d.f32\", \"located_pose\": ",
+                "\"image_index\": %d, \"readback_ok\": %s, \"file\": \"frame_%05ld_view_%d.f32\", "
+                "\"located_pose\": ",
                 r->offset.x, r->offset.y, r->extent.width, r->extent.height, (long long)sc->format,
-                encoding, sc->width, sc->height, sc->last_released, n, i);
+                encoding, sc->width, sc->height, sc->last_released,
+                err == GL_NO_ERROR ? "true" : "false", n, i);
         write_pose(js, &located);
         fprintf(js, ", \"located_fov\": ");
         write_fov(js, &located_fov);
