@@ -50,8 +50,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--converge",
         action="store_true",
-        help="hold the first located pose until all lights are in (captures then equal an "
-        "independent render of those poses)",
+        help="hold the first located pose for the whole run: the lights accumulate until all "
+        "are in and later frames stay converged (captures then equal an independent render "
+        "of that pose)",
     )
     p.add_argument(
         "--scale", type=_positive_float, default=1.0, metavar="S",

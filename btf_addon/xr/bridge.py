@@ -92,7 +92,8 @@ class BridgeSettings:
     time to hold (None: the runtime's predicted display period); ``profile``: the headset
     profile (render/headsets.py) used for what the runtime does not report; ``capture_dir``:
     write each submitted eye image (xr/capture.py); ``converge``: hold the first located
-    pose until every light is in; ``placement``: where the runtime's space lies in the scene
+    pose (submitted as drawn) for the whole run, so the lights accumulate until all are in and
+    the image then stays converged; ``placement``: where the runtime's space lies in the scene
     (module docstring: "space", the default, or "camera")."""
 
     lights_total: int = 200
@@ -307,10 +308,10 @@ class XRBridge:
         if self.world_from_space is None:
             self._place_space()
         if settings.converge:
-            if eye.held is None or eye.view is None or eye.view.state is None:
+            # The first located pose for the whole run: the lights accumulate until all N are
+            # in, and every later frame is that converged image (what a check compares).
+            if eye.held is None:
                 eye.held = located
-            if eye.view is not None and eye.view.state is not None and eye.view.state.converged:
-                eye.held = located  # all lights in: follow the head again
             view_used = eye.held
         else:
             view_used = located
