@@ -45,8 +45,13 @@ class GlfwContext:
     def __init__(self, kind: str):
         if kind not in ("wgl", "glx"):
             raise ValueError(f"unknown binding kind {kind!r}")
-        import glfw
-
+        try:
+            import glfw
+        except ImportError:
+            raise RuntimeError(
+                "a desktop OpenGL binding needs the glfw package (pip install glfw==2.11.0); "
+                "the extension does not bundle it"
+            ) from None
         self.kind, self._glfw = kind, glfw
         if not glfw.init():
             raise RuntimeError("glfw could not initialise (no desktop session?)")
