@@ -413,3 +413,35 @@ def test_the_space_is_placed_at_the_camera_facing_its_heading():
     assert m @ [0.1, 1.6, -0.2, 1.0] == pytest.approx([1.0, 2.0, 3.0, 1.0])
     assert m[:3, :3] @ [0.0, 0.0, -1.0] == pytest.approx([1.0, 0.0, 0.0])
     assert m[:3, :3] @ [0.0, 1.0, 0.0] == pytest.approx([0.0, 0.0, 1.0])
+
+
+def test_set_scene_keeps_the_unchanged_uploads(xr_runtime, rng):
+    """A new scene with one material changed: the next frame's drawer re-uploads that BTF's
+    tables only (meshes, the other BTF and the World kept), and both eyes start over."""
+    from dataclasses import replace
+
+    from btf_addon.xr.bridge import XRBridge
+
+    script(xr_runtime)
+    scene = small_scene(rng)
+    bridge = XRBridge(scene, RenderSettings(), settings(lights_total=64))
+    bridge.start()
+    try:
+        while bridge.frames < 3:
+            assert bridge.run_frame()
+        before = dict(bridge.status.lights_done)
+        edited = replace(
+            scene, materials=[Material(GGXBTF((0.2, 0.5, 0.9), 0.2)), *scene.materials[1:]]
+        )
+        bridge.set_scene(edited)
+        frames = bridge.frames
+        while bridge.frames == frames:
+            assert bridge.run_frame()
+        assert bridge.drawer.scene is edited
+        assert bridge.drawer.uploads == {"tables": 1, "meshes": 0}
+        # Started over: each eye holds just this frame's batch (it had more before).
+        status = bridge.status
+        assert status.lights_done == status.lights_per_frame, (before, status)
+        assert all(before[eye] > 1 for eye in ("left", "right"))
+    finally:
+        bridge.close()
