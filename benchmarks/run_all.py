@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import platform
 
+import bench_bridge
 import bench_decode
 import bench_envmap
 import bench_final_render
@@ -22,6 +23,7 @@ if __name__ == "__main__":
         bench_envmap,
         bench_viewport,
         bench_vr,
+        bench_bridge,
         bench_final_render,
         bench_wiimote,
     ):

@@ -10,7 +10,7 @@ from ..core.errors import BTFError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import btf_commands, doctor, envmap_command, render_command
+    from . import bridge_command, btf_commands, doctor, envmap_command, render_command
 
     parser = argparse.ArgumentParser(
         prog="python -m btf_addon", description="BTF Materials command-line tools"
@@ -22,6 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
     btf_commands.add_parsers(sub)
     envmap_command.add_parser(sub)
     render_command.add_parser(sub)
+    bridge_command.add_parser(sub)
     return parser
 
 

@@ -1,0 +1,179 @@
+"""``bridge``: the XTAL bridge headless — a .blend's scene drawn straight into whatever OpenXR
+runtime the loader finds (``XR_RUNTIME_JSON``), for N frames, optionally captured.
+
+The .blend is opened in Blender (the bpy module) with the add-on registered, as ``render
+--blend`` does, and its scene exported by the shared export (blender/export) once; the bridge
+(xr/bridge.py) then runs bpy-free.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..core.errors import BTFError
+from ..render.headsets import PROFILES
+from ..render.settings import RenderSettings
+
+DESCRIPTION = """\
+Run the XTAL bridge on a .blend's active scene against the OpenXR runtime the loader finds
+(set XR_RUNTIME_JSON to choose one): per eye, the progressive BTF drawer with K lights per
+frame within the runtime's frame period, submitted to the headset. --place says where the
+runtime's space lies in the scene: "space" (default) uses the reported poses as scene
+coordinates; "camera" puts the head at the scene camera, facing its heading, +y up turned to
+the scene's +z (what a worn headset needs).
+
+--capture DIR writes, per submitted frame and eye, the linear image (EXR) and a JSON with the
+eye's pose and FOV as submitted, the matrices drawn with, lights so far, exposure, eye size
+and the runtime's name (docs/user-guide.md, "XTAL bridge and headless captures").
+
+Exit codes: 0 ok, 2 usage or scene errors, 3 no OpenXR runtime, 4 no headset, 5 session
+lost, 6 the runtime lacks what the bridge needs (two views, an OpenGL/EGL binding, a usable
+swapchain format), 130 interrupted (Ctrl-C).
+"""
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "bridge",
+        help="drive an OpenXR headset with the BTF renderer (the XTAL bridge), headless",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--blend", type=Path, required=True, help="the .blend (its active scene)")
+    p.add_argument(
+        "--frames", type=_positive_int, metavar="N", help="submit N frames, then end (default: "
+        "until the runtime ends the session)"
+    )  # fmt: skip
+    p.add_argument("--capture", type=Path, metavar="DIR", help="write each eye image + JSON")
+    p.add_argument(
+        "--converge",
+        action="store_true",
+        help="hold the first located pose for the whole run: the lights accumulate until all "
+        "are in and later frames stay converged (captures then equal an independent render "
+        "of that pose)",
+    )
+    p.add_argument(
+        "--scale", type=_positive_float, default=1.0, metavar="S",
+        help="eye resolution × S of the runtime's recommended size (clamped to its maximum)",
+    )  # fmt: skip
+    p.add_argument(
+        "--lights", type=_positive_int, metavar="N", help="virtual lights per eye (default: "
+        "the scene's Lights setting)"
+    )  # fmt: skip
+    p.add_argument("--exposure", type=float, default=0.0, metavar="STOPS", help="exposure")
+    p.add_argument(
+        "--profile",
+        choices=sorted(PROFILES),
+        default="generic-2016x2240",
+        help="headset profile for what the runtime does not report",
+    )
+    p.add_argument(
+        "--place",
+        choices=("space", "camera"),
+        default="space",
+        help="space (default): the runtime's reference space is the scene's world, poses used "
+        "as reported; camera: the head starts at the scene camera, facing its heading, +y up "
+        "turned to +z up (as Blender's VR session; for wearing a headset)",
+    )
+    p.add_argument(
+        "--hud",
+        action="store_true",
+        help="show the status panel in the eyes (off by default: the images, and captures, "
+        "then hold the scene alone, as an independent render of the same views does)",
+    )
+    p.set_defaults(func=cmd_bridge)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {value}")
+    return value
+
+
+def cmd_bridge(args) -> int:
+    from ..controllers import actions, xr_bindings
+    from ..xr.bridge import BridgeError, BridgeSettings, ControlMap, run_bridge
+
+    if not args.blend.is_file():
+        raise BTFError(f"{args.blend}: no such .blend file")
+    scene, render_settings = export_blend(args.blend)
+    settings = BridgeSettings(
+        lights_total=args.lights or render_settings.lights_total,
+        exposure=args.exposure,
+        resolution_scale=args.scale,
+        profile=args.profile,
+        show_hud=args.hud,
+        capture_dir=args.capture.resolve() if args.capture else None,
+        converge=args.converge,
+        placement=args.place,
+    )
+    for message in scene.messages:
+        print(f"note: {message}", file=sys.stderr)
+    try:
+        controls = ControlMap(
+            xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
+        )
+        status = run_bridge(scene, render_settings, settings, args.frames, controls)
+    except BridgeError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:  # Ctrl-C: the session and context were released on the way out
+        print("interrupted: the OpenXR session was closed", file=sys.stderr)
+        return 130
+    fps = f"{status.fps:.1f}" if status.fps is not None else "n/a"
+    w, h = status.eye_size
+    print(f"runtime: {status.runtime}")
+    print(f"values from: {status.values_from}" + (f" ({status.message})" if status.message else ""))
+    print(f"eye size: {w}x{h}; frames: {status.frames}; FPS: {fps}")
+    for eye in sorted(status.lights_per_frame):
+        print(
+            f"{eye} eye: {status.lights_per_frame[eye]} lights per frame, "
+            f"{status.lights_done.get(eye, 0)}/{settings.lights_total} accumulated"
+        )
+    if settings.capture_dir is not None:
+        print(f"captures in {settings.capture_dir}")
+    return 0
+
+
+def export_blend(path: Path) -> tuple:
+    """Open ``path`` in Blender and export its active scene (plain arrays) and render
+    settings, with the add-on registered as ``render --blend`` registers it."""
+    try:
+        import bpy
+    except ImportError:
+        raise BTFError(
+            "opening a .blend needs Blender's bpy module (pip install bpy==5.0.1)"
+        ) from None
+    from .render_command import _engine_registered
+
+    with _engine_registered(bpy):
+        bpy.ops.wm.open_mainfile(filepath=str(path.resolve()))
+        from ..blender.export import export_scene
+
+        blender_scene = bpy.context.scene
+        if blender_scene.camera is None:
+            raise BTFError(f"the scene {blender_scene.name!r} has no camera: the bridge "
+                           "places the viewer at the scene camera")  # fmt: skip
+        settings = RenderSettings.from_properties(blender_scene.btf_render)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        pct = blender_scene.render.resolution_percentage / 100
+        w = max(1, int(blender_scene.render.resolution_x * pct))
+        h = max(1, int(blender_scene.render.resolution_y * pct))
+        scene = export_scene(depsgraph, w, h)
+    return scene, settings

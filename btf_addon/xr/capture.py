@@ -1,0 +1,59 @@
+"""Captures of what the bridge submitted: per frame and eye, the linear image drawn (EXR) and a
+JSON beside it with everything needed to draw it again independently.
+
+Files in the capture directory, for frame ``n`` (the bridge's submitted-frame index from 0)
+and eye ``e`` (``left``/``right``):
+
+- ``frame_{n:05d}_{e}.exr``: float32 RGB, scene-linear, exposure applied, HUD included when
+  it was drawn; row 0 at the TOP (image order);
+- ``frame_{n:05d}_{e}.json``: ``frame``, ``eye``, ``display_time_ns``, ``runtime``,
+  ``pose`` ([x, y, z, qx, qy, qz, qw] in the reference space, as submitted), ``fov``
+  ([left, right, up, down] radians, as submitted), ``reference_space``,
+  ``world_from_space`` (4×4, row-major: the reference space placed in the scene),
+  ``view_from_world`` and ``clip_from_view`` (4×4 the image was drawn with), ``near``/``far``,
+  ``lights_done``/``lights_total`` (accumulated in this image), ``lights_this_frame``,
+  ``exposure`` (stops), ``eye_size`` ([w, h]), ``format`` (the swapchain's GL enum),
+  ``values_from``, ``image`` (the EXR's file name).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..core.fileio import atomic_write
+from ..core.imageio import write_exr
+
+
+def write_eye(directory: Path, frame: int, eye: str, image: np.ndarray, meta: dict) -> Path:
+    """``image``: (h, w, 4) float32 linear RGBA, row 0 at the BOTTOM (OpenGL's readback).
+    Writes the EXR and the JSON (``meta`` plus ``frame``, ``eye``, ``image``); returns the
+    JSON's path."""
+    directory.mkdir(parents=True, exist_ok=True)
+    stem = f"frame_{frame:05d}_{eye}"
+    exr = write_exr(directory / f"{stem}.exr", np.ascontiguousarray(image[::-1, :, :3]))
+    record = {"frame": frame, "eye": eye, **meta, "image": exr.name}
+    text = json.dumps(_plain(record), indent=1).encode()
+    return atomic_write(directory / f"{stem}.json", lambda f: f.write(text))
+
+
+def read_eye(json_path: Path) -> tuple[dict, np.ndarray]:
+    """A capture's JSON and its image ((h, w, 3) float32, row 0 at the top)."""
+    from ..core.imageio import read_exr
+
+    meta = json.loads(Path(json_path).read_text())
+    return meta, read_exr(Path(json_path).parent / meta["image"])
+
+
+def _plain(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
