@@ -78,6 +78,18 @@ def bridge_settings(props):
         budget_s=props.frame_budget_ms / 1e3 if props.frame_budget_ms > 0 else None,
         profile=props.profile,
         show_hud=props.show_hud,
+        placement="camera",  # the head starts at the scene camera, as in Blender's VR session
+    )
+
+
+def control_map():
+    """The VR controllers' actions (the same set as in Blender's VR session), for the bridge's
+    own OpenXR action set."""
+    from ..controllers import actions, xr_bindings
+    from ..xr.controls import ControlMap
+
+    return ControlMap(
+        xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
     )
 
 
@@ -142,8 +154,11 @@ class BridgeController:
         exported = export_scene(self._depsgraph(), *EXPORT_SIZE, cache=self.cache, viewport=True)
         self.messages = list(exported.messages)
         settings = RenderSettings.from_properties(self.scene.btf_render)
-        make = self._make_bridge or XRBridge
-        self.bridge = make(exported, settings, bridge_settings(self.scene.btf_bridge))
+        options = bridge_settings(self.scene.btf_bridge)
+        if self._make_bridge is not None:
+            self.bridge = self._make_bridge(exported, settings, options)
+        else:
+            self.bridge = XRBridge(exported, settings, options, control_map())
         self.thread = BridgeThread(self.bridge, frames)
         self.thread.start()
         bpy.app.handlers.depsgraph_update_post.append(self._on_depsgraph_update)

@@ -16,6 +16,7 @@ PURE_PACKAGES = [
     "btf_addon.render",
     "btf_addon.diagnostics",
     "btf_addon.controllers",
+    "btf_addon.xr.bridge",  # pyopenxr, moderngl and EGL only inside functions
     "btf_addon.cli.main",
 ]
 
