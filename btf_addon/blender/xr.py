@@ -40,7 +40,7 @@ from ..gl.device import DrawState
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.hud import HudDrawer
 from ..gl.interface import ShaderCompileError
-from ..render.frame_budget import FrameBudget, view_moved
+from ..render.frame_budget import HEAD_STILL_TOLERANCE, FrameBudget, view_moved
 from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
 from ..render.lighting import frame_lights
 from ..render.settings import Lighting, RenderSettings
@@ -170,14 +170,15 @@ class XRPreview:
         view = eye.view
         world_from_view = np.linalg.inv(view_from_world)
         towards_viewer = world_from_view[:3, 2]
-        lights_key = (settings.lighting, settings.lights_total, settings.seed, id(drawer))
+        lights_key = (settings.lighting, settings.lights_total, settings.seed, drawer.serial)
         if settings.lighting is Lighting.HEADLIGHT:  # the headlight follows the head
             lights_key += (tuple(towards_viewer.round(4)),)
         clip_from_world = clip_from_view @ view_from_world
         if lights_key != eye.lights_key:
             view.set_lights(frame_lights(settings, drawer.scene, towards_viewer), k)
             eye.lights_key = lights_key
-        if view.clip_from_world is None or view_moved(view.clip_from_world, clip_from_world):
+        moved = view_moved(view.clip_from_world, clip_from_world, HEAD_STILL_TOLERANCE)
+        if view.clip_from_world is None or moved:
             drawer.restart(view, clip_from_world, [*world_from_view[:3, 3], 1.0])
             eye.gaze_material = self._gaze_material(depsgraph, world_from_view)
         view.state.per_pass = max(1, int(k))
@@ -194,6 +195,8 @@ class XRPreview:
                 self._draw_hud(eye, eye_id, clip_from_view, view, vr)
             gpu.state.blend_set("NONE")
             gpu.state.depth_test_set("NONE")
+            gpu.state.depth_mask_set(True)
+        self.error = ""  # drawn: whatever went wrong before is over
 
     def _viewer(self) -> np.ndarray | None:
         state = self.source.session_state()
@@ -320,7 +323,10 @@ def draw_callback(target: XRPreview | None = None) -> None:
         if message != target.error:
             traceback.print_exc()
         target.error = message
+        # Whatever state the failed draw left: Blender's next draws expect its defaults.
         gpu.state.blend_set("NONE")
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(True)
 
 
 @bpy.app.handlers.persistent

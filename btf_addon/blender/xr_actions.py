@@ -150,6 +150,7 @@ class XrActionRun:
         self.action: Action = item.action
         self.last_t: float | None = None
         self.last_deflection = 0.0
+        self.gesture_start = 0  # len(applied) when the running gesture began
         self.applied: list[tuple[Edit, str]] = []
         self.undo_steps: list[str] = []
         self.messages: list[str] = []
@@ -170,6 +171,7 @@ class XrActionRun:
         step); a continuous one starts its gesture (nothing moves before time has passed)."""
         if is_continuous(self.item):
             self.last_t, self.last_deflection = now, deflection(xr)
+            self.gesture_start = len(self.applied)
             return ""
         return self._apply(Edit(now, self.action, self.item.amount, target=self.target(xr)))
 
@@ -192,7 +194,8 @@ class XrActionRun:
         if not is_continuous(self.item) or self.last_t is None:
             return ""
         text = self.update(xr, now)
-        self._apply(Edit(now, self.action, 0.0, end=True))
+        if len(self.applied) > self.gesture_start:  # no empty undo step for a gesture of nothing
+            self._apply(Edit(now, self.action, 0.0, end=True))
         self.last_t = None
         return text
 

@@ -23,6 +23,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, Po
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ..controllers.actions import ACTION_LABELS
+from ..core.errors import BTFError
 from ..render.headsets import PROFILES
 from ..render.settings import RenderSettings
 from .export import ExportCache, changed_ids, export_scene
@@ -109,10 +110,9 @@ class BridgeThread(threading.Thread):
         try:
             self.bridge.start()
             self.started_ok.set()
-            count = 0
             while self.bridge.run_frame():
-                count += 1
-                if self.frames is not None and count >= self.frames:
+                # Frames submitted, not loop passes (it polls while the session starts).
+                if self.frames is not None and self.bridge.frames >= self.frames:
                     self.bridge.request_stop()
                     self.frames = None  # let the runtime take the session down cleanly
         except BridgeError as exc:
@@ -175,11 +175,15 @@ class BridgeController:
             return False
         if self.dirty and self.thread.is_alive():
             self.dirty = False
-            exported = export_scene(
-                self._depsgraph(), *EXPORT_SIZE, cache=self.cache, viewport=True
-            )
-            self.messages = list(exported.messages)
-            self.bridge.set_scene(exported)
+            try:
+                exported = export_scene(
+                    self._depsgraph(), *EXPORT_SIZE, cache=self.cache, viewport=True
+                )
+            except BTFError as exc:  # the headset keeps the last good scene meanwhile
+                self.messages.append(str(exc))
+            else:
+                self.messages = list(exported.messages)
+                self.bridge.set_scene(exported)
         for edit in self.bridge.pop_edits():
             self._apply(edit)
         if self.thread.is_alive():
@@ -240,7 +244,8 @@ class BTF_OT_xtal_bridge(Operator):
 
     def invoke(self, context, event):
         if BTF_OT_xtal_bridge._running is not None:
-            BTF_OT_xtal_bridge._running.stop()  # clicking again stops it
+            # Clicking again stops it; the running operator's next tick sees the thread gone.
+            BTF_OT_xtal_bridge._running.stop()
             return {"FINISHED"}
         controller = BridgeController(context.scene, context.view_layer)
         try:
@@ -255,11 +260,20 @@ class BTF_OT_xtal_bridge(Operator):
 
     def modal(self, context, event):
         controller = BTF_OT_xtal_bridge._running
+        if controller is None:  # stopped from elsewhere (unregister)
+            return self._end(context, {"CANCELLED"}, "")
         if event.type == "ESC" and event.value == "PRESS":
             controller.stop()
             return self._end(context, {"FINISHED"}, "XTAL Bridge stopped")
         if event.type == "TIMER":
-            if not controller.tick():
+            try:
+                alive = controller.tick()
+            except Exception as exc:
+                traceback.print_exc()
+                controller.stop()
+                self.report({"ERROR"}, f"XTAL Bridge stopped: {exc}")
+                return self._end(context, {"CANCELLED"}, "")
+            if not alive:
                 error = controller.error
                 if error is not None:
                     self.report({"ERROR"}, f"XTAL Bridge: {error}")
@@ -268,6 +282,12 @@ class BTF_OT_xtal_bridge(Operator):
             if context.area is not None:
                 context.area.header_text_set(controller.status_text())
         return {"PASS_THROUGH"}
+
+    def cancel(self, context):
+        """Blender ends modal operators itself (a file loaded, Blender quitting)."""
+        if BTF_OT_xtal_bridge._running is not None:
+            BTF_OT_xtal_bridge._running.stop()
+        self._end(context, {"CANCELLED"}, "")
 
     def _end(self, context, result, message):
         context.window_manager.event_timer_remove(self._timer)

@@ -14,6 +14,7 @@ views of one drawer.
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,7 @@ from .interface import BACKGROUND_SHADER, RESOLVE_SHADER, SURFACE_SHADER
 MAX_SIZE = 16384  # pixels per side: beyond any GPU's texture limit
 # Two triangles covering clip space: one fragment per pixel of the bound target.
 QUAD = np.array([(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)], dtype=np.float32)
+_serials = itertools.count(1)
 
 
 def check_size(width: int, height: int) -> None:
@@ -99,6 +101,9 @@ class ProgressiveDrawer:
         if previous is not None and previous.released:
             raise RuntimeError("the previous drawer was released or already handed over")
         self.device, self.scene = device, scene
+        # Unique per drawer for the process's life (id() is reused once a drawer is freed):
+        # a view keyed on it knows its lights and depth belong to another scene.
+        self.serial = next(_serials)
         self.released = False
         self.surface = device.program(SURFACE_SHADER)
         self.background_program = device.program(BACKGROUND_SHADER)

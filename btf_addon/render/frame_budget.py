@@ -318,6 +318,13 @@ def _weighted_var(x: np.ndarray, w: np.ndarray) -> float:
     return float(np.average((x - mean) ** 2, weights=w))
 
 
+#: What a headset's eye may change and still count as "still" (``view_moved``'s tolerance for
+#: the VR preview and the bridge): about 1 mm or 0.06°. A tracked head is never exactly still
+#: (sub-millimetre tracking noise, poses predicted anew every frame); at 1e-4 it would restart
+#: every frame and never get past K lights.
+HEAD_STILL_TOLERANCE = 1e-3
+
+
 def view_moved(a: np.ndarray | None, b: np.ndarray | None, tolerance: float = 1e-4) -> bool:
     """Whether two (4, 4) clip_from_world matrices show different views: True when either is
     None or some entry differs by more than ``tolerance`` times the matrix's scale.

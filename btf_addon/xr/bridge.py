@@ -40,7 +40,7 @@ import numpy as np
 
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.hud import HudDrawer
-from ..render.frame_budget import FrameBudget, view_moved
+from ..render.frame_budget import HEAD_STILL_TOLERANCE, FrameBudget, view_moved
 from ..render.headsets import profile as headset_profile
 from ..render.headsets import projection_from_fov
 from ..render.hud import hud_quad, raster_text, status_lines
@@ -135,6 +135,7 @@ class _Eye:
     hud_lines: list[str] = field(default_factory=list)
     hud_image: np.ndarray | None = None
     hud_time: float = -1.0
+    hud: HudDrawer | None = None  # one per eye: the eyes' texts differ (their own times)
 
 
 def world_from_space(world_from_camera: np.ndarray, head_in_space: np.ndarray) -> np.ndarray:
@@ -184,7 +185,7 @@ class XRBridge:
         self._edits: list = []  # controllers.actions.Edit (made by the ControlMap)
         self.control_map = controls
         self._status = BridgeStatus(values_from="runtime")
-        self.gl = self.session = self.device = self.drawer = self.hud = self.controls = None
+        self.gl = self.session = self.device = self.drawer = self.controls = None
         self.eyes: list[_Eye] = []
         self.world_from_space: np.ndarray | None = None
         self.frames = 0  # submitted frames
@@ -259,7 +260,7 @@ class XRBridge:
             return False
         session = self.session
         with self._lock:
-            stop, scene, self._pending_scene = self._stop, self._pending_scene, None
+            stop = self._stop
         if stop:
             session.request_exit()
         try:
@@ -275,6 +276,8 @@ class XRBridge:
             self._publish()
             time.sleep(IDLE_WAIT_S)
             return True
+        with self._lock:  # taken only now: a scene set before the session runs is kept
+            scene, self._pending_scene = self._pending_scene, None
         if scene is not None:
             self.drawer = ProgressiveDrawer(self.device, scene, previous=self.drawer)
             self._scene = scene
@@ -331,14 +334,15 @@ class XRBridge:
         world_from_view = np.linalg.inv(view_from_world)
         towards_viewer = world_from_view[:3, 2]
         rs = self.render_settings
-        lights_key = (rs.lighting, rs.lights_total, rs.seed, id(drawer))
+        lights_key = (rs.lighting, rs.lights_total, rs.seed, drawer.serial)
         if rs.lighting is Lighting.HEADLIGHT:
             lights_key += (tuple(towards_viewer.round(4)),)
         if lights_key != eye.lights_key:
             view.set_lights(frame_lights(rs, drawer.scene, towards_viewer), max(1, k))
             eye.lights_key = lights_key
         clip_from_world = clip_from_view @ view_from_world
-        if view.clip_from_world is None or view_moved(view.clip_from_world, clip_from_world):
+        moved = view_moved(view.clip_from_world, clip_from_world, HEAD_STILL_TOLERANCE)
+        if view.clip_from_world is None or moved:
             drawer.restart(view, clip_from_world, [*world_from_view[:3, 3], 1.0])
         view.state.per_pass = max(1, int(k))
         eye.drawn = drawer.add_batch(view)
@@ -369,11 +373,11 @@ class XRBridge:
             if lines != eye.hud_lines:
                 eye.hud_lines, eye.hud_image = lines, raster_text(lines)
             eye.hud_time = now
-        if self.hud is None:
-            self.hud = HudDrawer(self.device)
-        self.hud.set_image(eye.hud_image)
+        if eye.hud is None:
+            eye.hud = HudDrawer(self.device)
+        eye.hud.set_image(eye.hud_image)  # uploads only when this eye's text changed
         aspect = eye.hud_image.shape[1] / eye.hud_image.shape[0]
-        self.hud.draw(clip_from_view, hud_quad(self._eye_offset(index), aspect))
+        eye.hud.draw(clip_from_view, hud_quad(self._eye_offset(index), aspect))
 
     def _eye_offset(self, index: int) -> float:
         """∓IPD/2: the eyes' distance as located (the profile's IPD before two are known)."""
@@ -459,8 +463,8 @@ class XRBridge:
             with self.device.bound(view.output):  # the same draws, into a float target
                 self.drawer.draw_resolved(view, self.settings.exposure)
                 if self.settings.show_hud and eye.hud_image is not None:
-                    self.hud.set_image(eye.hud_image)  # this eye's text (uploads if it differs)
-                    self.hud.draw(clip_from_view, self._hud_corners(eye, index))
+                    eye.hud.set_image(eye.hud_image)
+                    eye.hud.draw(clip_from_view, self._hud_corners(eye, index))
             meta = {
                 "display_time_ns": info.display_time,
                 "runtime": session.runtime_name,
@@ -502,9 +506,9 @@ class XRBridge:
             if eye.view is not None:
                 eye.view.release()
                 eye.view = None
-        if self.hud is not None:
-            self.hud.release()
-            self.hud = None
+            if eye.hud is not None:
+                eye.hud.release()
+                eye.hud = None
         if self.drawer is not None:
             self.drawer.release()
             self.drawer = None

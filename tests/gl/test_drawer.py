@@ -195,3 +195,21 @@ def test_renderers_on_two_contexts_draw_into_their_own(gl_ctx, rng):
         second.release()
     np.testing.assert_array_equal(first.render(lights), before)
     first.release()  # makes the session context current again: later tests use it directly
+
+
+def test_every_drawer_has_its_own_serial_even_at_a_reused_address(gl_ctx, rng):
+    """Views key their lights and depth on the drawer that made them (the VR preview, the
+    bridge): a drawer made after another was freed must not pass for it, as id() can."""
+    from btf_addon.gl.drawer import ProgressiveDrawer
+    from btf_addon.gl.moderngl_device import ModernGLDevice
+
+    device = ModernGLDevice(gl_ctx)
+    scene = two_material_scene(rng)
+    serials, ids = set(), set()
+    for _ in range(4):
+        drawer = ProgressiveDrawer(device, scene)
+        serials.add(drawer.serial)
+        ids.add(id(drawer))
+        drawer.release()
+        del drawer
+    assert len(serials) == 4  # (ids may repeat: CPython reuses a freed object's address)

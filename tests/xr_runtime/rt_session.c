@@ -343,6 +343,10 @@ static XrResult XRAPI_CALL rt_WaitFrame(XrSession session, const XrFrameWaitInfo
             rt_lock_release(NULL);
             nanosleep(&ts, NULL);
             rt_lock_acquire();
+            /* another thread may have destroyed the session (or its instance) meanwhile */
+            s = rt_handle_get(session, RT_SESSION);
+            if (!s) return rt_refuse(XR_ERROR_HANDLE_INVALID, F, "destroyed while waiting");
+            cfg = &s->instance->cfg;
         }
     }
     state->predictedDisplayTime = s->t0 + (k + 1) * period;
