@@ -38,12 +38,12 @@ import numpy as np
 from ..core.errors import BTFError
 from ..gl.device import DrawState
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
+from ..gl.eye import EyeAccumulation
 from ..gl.hud import HudDrawer
 from ..gl.interface import ShaderCompileError
-from ..render.frame_budget import HEAD_STILL_TOLERANCE, FrameBudget, view_moved
+from ..render.frame_budget import FrameBudget
 from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
-from ..render.lighting import frame_lights
-from ..render.settings import Lighting, RenderSettings
+from ..render.settings import RenderSettings
 from ..render.stereo import EyeId, EyeIdentifier
 from . import wiimote_overlay
 from .export import ExportCache, changed_ids, export_scene
@@ -84,8 +84,7 @@ class VRSettings:
 @dataclass
 class EyeState:
     budget: FrameBudget
-    view: ViewAccumulation | None = None
-    lights_key: tuple | None = None
+    image: EyeAccumulation = field(default_factory=EyeAccumulation)
     drawn: int = 0  # lights added in this eye's previous frame
     frames: int = 0
     hud_lines: list[str] = field(default_factory=list)
@@ -93,6 +92,10 @@ class EyeState:
     hud: HudDrawer | None = None
     hud_time: float = -1.0
     gaze_material: str = ""
+
+    @property
+    def view(self) -> ViewAccumulation | None:
+        return self.image.view
 
 
 @dataclass(frozen=True)
@@ -128,8 +131,7 @@ class XRPreview:
 
     def release(self) -> None:
         for eye in self.eyes.values():
-            if eye.view is not None:
-                eye.view.release()
+            eye.image.release()
             if eye.hud is not None:
                 eye.hud.release()
         self.eyes.clear()
@@ -162,27 +164,12 @@ class XRPreview:
         drawer = self._drawer(depsgraph, size)
         if drawer is None:
             return
-        if eye.view is None or eye.view.size != tuple(size):
-            if eye.view is not None:
-                eye.view.release()
-            eye.view = ViewAccumulation(self.device, *size)
-            eye.lights_key = None
+        eye.drawn, restarted = eye.image.advance(
+            drawer, size, settings, clip_from_view, view_from_world, k
+        )
+        if restarted:
+            eye.gaze_material = self._gaze_material(depsgraph, np.linalg.inv(view_from_world))
         view = eye.view
-        world_from_view = np.linalg.inv(view_from_world)
-        towards_viewer = world_from_view[:3, 2]
-        lights_key = (settings.lighting, settings.lights_total, settings.seed, drawer.serial)
-        if settings.lighting is Lighting.HEADLIGHT:  # the headlight follows the head
-            lights_key += (tuple(towards_viewer.round(4)),)
-        clip_from_world = clip_from_view @ view_from_world
-        if lights_key != eye.lights_key:
-            view.set_lights(frame_lights(settings, drawer.scene, towards_viewer), k)
-            eye.lights_key = lights_key
-        moved = view_moved(view.clip_from_world, clip_from_world, HEAD_STILL_TOLERANCE)
-        if view.clip_from_world is None or moved:
-            drawer.restart(view, clip_from_world, [*world_from_view[:3, 3], 1.0])
-            eye.gaze_material = self._gaze_material(depsgraph, world_from_view)
-        view.state.per_pass = max(1, int(k))
-        eye.drawn = drawer.add_batch(view)
         eye.frames += 1
 
         # Making GPU objects (the first frame's offscreens, textures) may leave another

@@ -6,7 +6,8 @@ context (OpenGL contexts are current per thread). ``set_scene``, ``request_stop`
 and ``pop_edits`` may be called from any other thread (Blender's main thread): they only
 touch values under a lock, taken by the frame loop at its next frame.
 
-Per eye (one ``ViewAccumulation`` over the one ``ProgressiveDrawer``): the lights of
+Per eye (``gl/eye.EyeAccumulation``, shared with Blender's VR session callback: one
+``ViewAccumulation`` over the one ``ProgressiveDrawer``): the lights of
 ``render/lighting.frame_lights``, K of them per frame from ``render/frame_budget.FrameBudget``
 (budget: the runtime's predicted display period unless set), a restart when the eye's matrices
 moved (``view_moved``), the resolve drawn into the acquired swapchain image (sizes equal: the
@@ -39,13 +40,13 @@ from pathlib import Path
 import numpy as np
 
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
+from ..gl.eye import EyeAccumulation
 from ..gl.hud import HudDrawer
-from ..render.frame_budget import HEAD_STILL_TOLERANCE, FrameBudget, view_moved
+from ..render.frame_budget import FrameBudget
 from ..render.headsets import profile as headset_profile
 from ..render.headsets import projection_from_fov
 from ..render.hud import hud_quad, raster_text, status_lines
-from ..render.lighting import frame_lights
-from ..render.settings import Lighting, RenderSettings
+from ..render.settings import RenderSettings
 from ..scene.scene import Scene
 from .controls import ControlMap
 from .errors import (
@@ -128,14 +129,17 @@ class BridgeStatus:
 @dataclass
 class _Eye:
     budget: FrameBudget
-    view: ViewAccumulation | None = None
-    lights_key: tuple | None = None
+    image: EyeAccumulation = field(default_factory=EyeAccumulation)
     drawn: int = 0
     held: object = None  # the LocatedView held while converging
     hud_lines: list[str] = field(default_factory=list)
     hud_image: np.ndarray | None = None
     hud_time: float = -1.0
     hud: HudDrawer | None = None  # one per eye: the eyes' texts differ (their own times)
+
+    @property
+    def view(self) -> ViewAccumulation | None:
+        return self.image.view
 
 
 def world_from_space(world_from_camera: np.ndarray, head_in_space: np.ndarray) -> np.ndarray:
@@ -307,7 +311,7 @@ class XRBridge:
     # --- one eye ------------------------------------------------------------------------------
     def _draw_eye(self, index: int, located, chain, framebuffer):
         eye = self.eyes[index]
-        drawer, device, settings = self.drawer, self.device, self.settings
+        settings = self.settings
         if self.world_from_space is None:
             self._place_space()
         if settings.converge:
@@ -323,29 +327,16 @@ class XRBridge:
         k = eye.budget.frame(eye.drawn)
         eye.drawn = 0
 
-        size = (chain.width, chain.height)
-        if eye.view is None or eye.view.size != size:
-            if eye.view is not None:
-                eye.view.release()
-            eye.view = ViewAccumulation(device, *size)
-            eye.lights_key = None
-        view = eye.view
         view_from_world, clip_from_view = self.matrices(view_used)
-        world_from_view = np.linalg.inv(view_from_world)
-        towards_viewer = world_from_view[:3, 2]
-        rs = self.render_settings
-        lights_key = (rs.lighting, rs.lights_total, rs.seed, drawer.serial)
-        if rs.lighting is Lighting.HEADLIGHT:
-            lights_key += (tuple(towards_viewer.round(4)),)
-        if lights_key != eye.lights_key:
-            view.set_lights(frame_lights(rs, drawer.scene, towards_viewer), max(1, k))
-            eye.lights_key = lights_key
-        clip_from_world = clip_from_view @ view_from_world
-        moved = view_moved(view.clip_from_world, clip_from_world, HEAD_STILL_TOLERANCE)
-        if view.clip_from_world is None or moved:
-            drawer.restart(view, clip_from_world, [*world_from_view[:3, 3], 1.0])
-        view.state.per_pass = max(1, int(k))
-        eye.drawn = drawer.add_batch(view)
+        eye.drawn, _ = eye.image.advance(
+            self.drawer,
+            (chain.width, chain.height),
+            self.render_settings,
+            clip_from_view,
+            view_from_world,
+            k,
+        )
+        view = eye.view
 
         framebuffer.use()  # the acquired swapchain image (viewport: the whole image)
         self._resolve_into(eye, index, view, clip_from_view)
@@ -503,9 +494,7 @@ class XRBridge:
         if self.gl is not None and self.gl.context is not None:
             self.gl.make_current()
         for eye in self.eyes:
-            if eye.view is not None:
-                eye.view.release()
-                eye.view = None
+            eye.image.release()
             if eye.hud is not None:
                 eye.hud.release()
                 eye.hud = None
