@@ -341,8 +341,9 @@ def test_environment_without_mapping_gets_one_and_exposure_without_active_object
     assert mat_a.btf.exposure == pytest.approx(1 / 3)  # the BTF material in view
 
 
-def test_ir_pointer_picks_the_object_a_material_change_acts_on(bpy_module, fresh_scene):
-    bpy = bpy_module
+def two_cubes(bpy):
+    """The Wiimote scene's two BTF materials and two cubes at x = −2 and +2, both wearing the
+    first material."""
     _, (mat_a, mat_b), _ = scene_for_wiimote(bpy)
     cubes = []
     for x in (-2.0, 2.0):
@@ -350,7 +351,12 @@ def test_ir_pointer_picks_the_object_a_material_change_acts_on(bpy_module, fresh
         cube = bpy.context.view_layer.objects.active
         cube.data.materials.append(mat_a)
         cubes.append(cube)
-    left, right = cubes
+    return (mat_a, mat_b), tuple(cubes)
+
+
+def test_ir_pointer_picks_the_object_a_material_change_acts_on(bpy_module, fresh_scene):
+    bpy = bpy_module
+    (mat_a, mat_b), (left, right) = two_cubes(bpy)
     camera = bpy.context.scene.camera
     camera.location = (0.0, -10.0, 0.0)
     camera.rotation_euler = (math.pi / 2, 0.0, 0.0)  # looking along +Y
@@ -737,14 +743,7 @@ def _vr_state(viewer_location):
 
 def test_in_vr_targeted_edits_without_a_pointer_act_on_the_gazed_object(bpy_module, fresh_scene):
     bpy = bpy_module
-    _, (mat_a, mat_b), _ = scene_for_wiimote(bpy)
-    cubes = []
-    for x in (-2.0, 2.0):
-        bpy.ops.mesh.primitive_cube_add(size=1.0, location=(x, 0.0, 0.0))
-        cube = bpy.context.view_layer.objects.active
-        cube.data.materials.append(mat_a)
-        cubes.append(cube)
-    left, right = cubes
+    (mat_a, mat_b), (left, right) = two_cubes(bpy)
     bpy.context.view_layer.objects.active = left
     bpy.context.view_layer.update()
     session_mod = extension_submodule("btf_addon.blender.wiimote_session")

@@ -230,11 +230,8 @@ class StandInSession:
         return self._call("active_action_set_set", action_set)
 
 
-def test_action_map_is_built_in_the_add_on_order(bpy_module, xr_registered, monkeypatch):
-    bpy = bpy_module
-    xb = _bindings()
-    session = StandInSession(bpy)
-    # Setting ``op`` makes Blender create the operator's properties: stand in for that too.
+def stand_in_op_properties(session, monkeypatch) -> None:
+    """Setting ``op`` makes Blender create the operator's properties: stand in for that too."""
     original = RnaStandIn.__setattr__
 
     def setattr_with_op(self, name, value):
@@ -243,6 +240,13 @@ def test_action_map_is_built_in_the_add_on_order(bpy_module, xr_registered, monk
             self.__dict__["op_properties"] = RnaStandIn(session.op_rna, session.log)
 
     monkeypatch.setattr(RnaStandIn, "__setattr__", setattr_with_op)
+
+
+def test_action_map_is_built_in_the_add_on_order(bpy_module, xr_registered, monkeypatch):
+    bpy = bpy_module
+    xb = _bindings()
+    session = StandInSession(bpy)
+    stand_in_op_properties(session, monkeypatch)
     assert xr_registered.build_action_map(session, bpy.context) is True
     (am,) = session.actionmaps
     assert am.name == xb.ACTION_SET
@@ -275,14 +279,7 @@ def test_a_refused_binding_stops_before_the_set_is_made_active(
 ):
     bpy = bpy_module
     session = StandInSession(bpy, refuse="action_binding_create")
-    original = RnaStandIn.__setattr__
-
-    def setattr_with_op(self, name, value):
-        original(self, name, value)
-        if name == "op":
-            self.__dict__["op_properties"] = RnaStandIn(session.op_rna, session.log)
-
-    monkeypatch.setattr(RnaStandIn, "__setattr__", setattr_with_op)
+    stand_in_op_properties(session, monkeypatch)
     assert xr_registered.build_action_map(session, bpy.context) is False
     names = [entry[0] for entry in session.log]
     assert names.count("action_binding_create") == 1 and "active_action_set_set" not in names
