@@ -7,7 +7,7 @@ import bpy
 
 root = Path.cwd()
 sys.path.insert(0, str(root))
-import btf_addon
+import btf_addon  # noqa: E402  (after the sys.path line)
 
 btf_addon.register()
 bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
