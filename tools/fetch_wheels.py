@@ -36,8 +36,9 @@ def pip_download_args(wheel: Path) -> list[str]:
     name, version, python_tag, abi_tag, platform_tag = wheel.name[: -len(".whl")].split("-")
     args = ["--no-deps", "--only-binary=:all:", "-d", str(wheel.parent)]
     if platform_tag != "any":
-        args += ["--python-version", python_version_of_tag(python_tag)]
-        args += ["--implementation", "cp", "--abi", abi_tag]
+        if abi_tag != "none":  # a CPython build; "py2.py3-none-<platform>" (PoCL) fits any
+            args += ["--python-version", python_version_of_tag(python_tag)]
+            args += ["--implementation", "cp", "--abi", abi_tag]
         for tag in platform_tag.split("."):
             args += ["--platform", tag]
     return [*args, f"{name}=={version}"]
