@@ -12,11 +12,15 @@ MODULES = (
     "wiimote_preferences",  # before preferences: BTF_AddonPreferences.wiimote points at it
     "preferences",
     "properties",
+    "paths",  # BTF sources as external data: save handlers, File › External Data
+    "versioning",  # after the property groups it upgrades
     "render_settings",
     "operators",
     "import_btf",
     "engine",
     "ui",
+    "panels",  # Blender's own panels for this engine, by what it honours
+    "file_handler",
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",

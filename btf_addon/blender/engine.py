@@ -43,12 +43,30 @@ class BTFRenderEngine(bpy.types.RenderEngine):
             state.free_buffers()
 
 
+#: Panels listing 'BLENDER_RENDER' that show what this engine ignores or has its own panel for
+#: (panels.py): the Light panel (BTF_LIGHT_PT_light), light probes (not rendered), the
+#: View Layer's filter and passes (BTF_VIEWLAYER_PT_passes: the passes F12 writes).
+EXCLUDED_PANELS = {
+    "VIEWLAYER_PT_filter",
+    "VIEWLAYER_PT_layer_passes",
+    "DATA_PT_light",
+    "DATA_PT_lightprobe",
+    "DATA_PT_lightprobe_display",
+    "DATA_PT_lightprobe_parallax",
+    "DATA_PT_lightprobe_visibility",
+    "DATA_PT_context_lightprobe",
+}
+
+
 def compatible_panels():
     """Built-in panels shown for Eevee/Workbench that make sense for this engine as well."""
-    excluded = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
     for panel in bpy.types.Panel.__subclasses__():
         engines = getattr(panel, "COMPAT_ENGINES", None)
-        if engines is not None and "BLENDER_RENDER" in engines and panel.__name__ not in excluded:
+        if (
+            engines is not None
+            and "BLENDER_RENDER" in engines
+            and panel.__name__ not in EXCLUDED_PANELS
+        ):
             yield panel
 
 

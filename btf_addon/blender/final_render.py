@@ -14,6 +14,7 @@ This is the one render path: the CLI's ``render --blend`` runs it through
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -26,20 +27,67 @@ from ..render.settings import RenderSettings
 from ..scene.analysis import analyse
 from .export import export_scene
 from .glsl_fallback import render_glsl
-from .preferences import preferred_device
+from .paths import missing_message, missing_sources, with_error_colour
+from .preferences import MISSING_FAIL, missing_source_behaviour, opencl_help, preferred_device
+
+#: What the last F12 rendered on, for the render panel: "OpenCL on <device>" or the fallback.
+last_device = ""
+
+
+class Region(NamedTuple):
+    """The pixels Blender's render result holds: the Render Region (Ctrl+B) of a w × h frame,
+    or the whole frame. x, y: offset of its bottom-left pixel from the frame's, in pixels."""
+
+    x: int
+    y: int
+    w: int
+    h: int
+
+    def crop(self, bottom_first: np.ndarray) -> np.ndarray:
+        """The region of a (frame h, frame w, …) image whose row 0 is the bottom row."""
+        return bottom_first[self.y : self.y + self.h, self.x : self.x + self.w]
+
+
+def frame_size(render) -> tuple[int, int]:
+    """The frame in pixels as Blender computes it (integer percentage, as render_pipeline)."""
+    pct = render.resolution_percentage
+    return (
+        max(1, render.resolution_x * pct // 100),
+        max(1, render.resolution_y * pct // 100),
+    )
+
+
+def render_region(render, w: int, h: int) -> Region:
+    """The part of the w × h frame Blender's result covers: with Render Region on, Blender sizes
+    the result to the region, whose corners it computes as float(border) · int(size) truncated
+    to int (render_pipeline's disprect), which float32 reproduces here."""
+    if not render.use_border:
+        return Region(0, 0, w, h)
+    f32 = np.float32
+    x0, x1 = (int(f32(v) * f32(w)) for v in (render.border_min_x, render.border_max_x))
+    y0, y1 = (int(f32(v) * f32(h)) for v in (render.border_min_y, render.border_max_y))
+    x0, y0 = min(max(x0, 0), w - 1), min(max(y0, 0), h - 1)
+    return Region(x0, y0, max(1, min(x1, w) - x0), max(1, min(y1, h) - y0))
 
 
 def render(engine, depsgraph) -> None:
+    global last_device
     scene = depsgraph.scene
     settings = RenderSettings.from_properties(scene.btf_render)
-    pct = scene.render.resolution_percentage / 100
-    w = max(1, int(scene.render.resolution_x * pct))
-    h = max(1, int(scene.render.resolution_y * pct))
+    w, h = frame_size(scene.render)
+    region = render_region(scene.render, w, h)
+    transparent = scene.render.film_transparent
     try:
         exported = export_scene(depsgraph, w, h)
     except BTFError as exc:
         engine.report({"ERROR"}, str(exc))
         return
+    missing = missing_sources(exported)
+    if missing and missing_source_behaviour() == MISSING_FAIL:
+        # A farm must not deliver a plausible wrong frame: fail, naming every missing source.
+        report_error(engine, missing_message(missing))
+        return
+    exported = with_error_colour(exported, missing)
     for message in exported.messages:
         engine.report({"WARNING"}, message)
     try:
@@ -58,13 +106,19 @@ def render(engine, depsgraph) -> None:
         report_error(engine, compile_error_message(exc))
         return
     except (OpenCLUnavailableError, BTFError) as exc:
+        # The exception's own advice is for a Python prompt (pip): say it in Blender's words.
+        reason = str(exc).split(". Install", 1)[0]
         engine.report(
             {"WARNING"},
-            f"OpenCL unavailable ({exc}); rendering with the GLSL "
-            "viewport path instead (no shadows)",
+            f"OpenCL unavailable ({reason}); rendering with the GLSL viewport path instead "
+            f"(no shadows); no Depth/Normal/UV passes. {' '.join(opencl_help().splitlines())}",
         )
-        render_glsl(engine, exported, settings, w, h)
+        last_device = "GLSL fallback (no OpenCL device)"
+        combined = render_glsl(engine, exported, settings, w, h, transparent)
+        if combined is not None:  # None: it failed and reported why
+            write_result(engine, depsgraph.view_layer, region, {"Combined": combined})
         return
+    last_device = f"OpenCL on {renderer.ctx.device_name}"
     cam = exported.camera
     lights = frame_lights(settings, exported, cam.world_from_camera[:3, 2])
     sampled = settings.sampled
@@ -94,17 +148,21 @@ def render(engine, depsgraph) -> None:
     ):
         if enabled:  # passes must exist before the result is created
             engine.add_pass(name, channels, chan_id, layer=view_layer.name)
-    result = engine.begin_result(0, 0, w, h, layer=view_layer.name)
+    result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name)
     layer = result.layers[0]
-
-    def show(combined: np.ndarray) -> None:
-        """Progressive display of the Sampled mode: the image after each pass."""
-        layer.passes["Combined"].rect = np.ascontiguousarray(combined[::-1]).reshape(w * h, 4)
-        engine.update_result(result)
-
+    check_result_size(layer, region)
     if sampled:
         # Depth, normal and UV come from the deterministic kernel with one light (cheap).
         passes = renderer.render_direct(lights.prefix(1))
+        background = passes.depth >= MISS_DEPTH
+
+        def show(combined: np.ndarray) -> None:
+            """Progressive display of the Sampled mode: the image after each pass."""
+            if transparent:
+                combined = transparent_film(combined, background)
+            set_pass(layer.passes["Combined"], region, combined[::-1])
+            engine.update_result(result)
+
         passes.combined = renderer.render_sampled(
             settings.samples,
             settings.seed,
@@ -114,16 +172,60 @@ def render(engine, depsgraph) -> None:
         )
     else:
         passes = renderer.render_direct(lights, progress)
-    bottom_first = {  # Blender's render buffers start at the bottom row
-        "Combined": passes.combined,
+    combined = passes.combined
+    if transparent:
+        combined = transparent_film(combined, passes.depth >= MISS_DEPTH)
+    top_first = {
+        "Combined": combined,
         "Depth": passes.depth[..., None],
         "Normal": passes.normal,
         "UV": np.concatenate([passes.uv, np.ones_like(passes.depth)[..., None]], axis=-1),
     }
+    for name, image in top_first.items():
+        render_pass = layer.passes.find_by_name(name, "")
+        if render_pass is not None:
+            set_pass(render_pass, region, image[::-1])  # Blender's buffers: bottom row first
+    engine.end_result(result)
+
+
+#: kernels/render_direct.cl writes this depth (1e10) where the camera ray hits nothing.
+MISS_DEPTH = 1e9
+
+
+def transparent_film(combined: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """Film › Transparent: premultiplied RGBA 0 where the camera ray hits nothing (the World
+    still lights the objects), as Cycles. combined: (h, w, 4); background: (h, w) bool."""
+    out = combined.copy()
+    out[background] = 0.0
+    return out
+
+
+def check_result_size(layer, region: Region) -> None:
+    """Blender's result must hold exactly the region's pixels; a mismatch is a bug here, said
+    plainly instead of a failed array assignment after the whole render."""
+    pixels = len(layer.passes["Combined"].rect)
+    if pixels != region.w * region.h:
+        raise RuntimeError(
+            f"render result holds {pixels} pixels, expected {region.w}×{region.h} "
+            f"(region at {region.x}, {region.y})"
+        )
+
+
+def set_pass(render_pass, region: Region, bottom_first: np.ndarray) -> None:
+    """Write the region of a whole-frame image (row 0 at the bottom) into ``render_pass``."""
+    pixels = region.crop(bottom_first)
+    render_pass.rect = np.ascontiguousarray(pixels).reshape(region.w * region.h, -1)
+
+
+def write_result(engine, view_layer, region: Region, bottom_first: dict) -> None:
+    """One result with the given whole-frame passes (row 0 at the bottom)."""
+    result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name)
+    layer = result.layers[0]
+    check_result_size(layer, region)
     for name, image in bottom_first.items():
         render_pass = layer.passes.find_by_name(name, "")
         if render_pass is not None:
-            render_pass.rect = np.ascontiguousarray(image[::-1]).reshape(w * h, -1)
+            set_pass(render_pass, region, image)
     engine.end_result(result)
 
 

@@ -13,19 +13,24 @@ from .gpu_draw import scene_drawer
 BATCH = 16  # lights per pass: progress and cancel are checked between passes
 
 
-def render_glsl(engine, exported, settings: RenderSettings, w: int, h: int) -> None:
+def render_glsl(
+    engine, exported, settings: RenderSettings, w: int, h: int, transparent: bool = False
+):
+    """The (h, w, 4) float32 Combined image, row 0 at the bottom (Blender's order), or None
+    after reporting why there is none. ``transparent``: Film › Transparent, alpha 0 (premultiplied)
+    where no surface was drawn."""
     try:
         drawer = scene_drawer(exported)
     except (BTFError, ShaderCompileError) as exc:
         engine.report({"ERROR"}, str(exc))
-        return
+        return None
     cam = exported.camera
     try:
         view = ViewAccumulation(drawer.device, w, h)
     except Exception as exc:  # Blender's GPUOffScreen raises a bare Exception (size, memory)
         drawer.release()
         engine.report({"ERROR"}, f"GLSL fallback: no {w}×{h} float buffers on the GPU ({exc})")
-        return
+        return None
     try:
         view.set_lights(frame_lights(settings, exported, cam.world_from_camera[:3, 2]), BATCH)
         state = view.state
@@ -35,11 +40,9 @@ def render_glsl(engine, exported, settings: RenderSettings, w: int, h: int) -> N
             engine.update_progress(state.done / state.total)
             if engine.test_break():
                 break
-        drawer.resolve(view)
-        rect = view.read().reshape(w * h, 4)  # row 0 at the bottom, as Blender's results
+        with drawer.device.bound(view.output):
+            drawer.draw_resolved(view, transparent_background=transparent)
+        return view.read().reshape(h, w, 4)  # row 0 at the bottom, as Blender's results
     finally:
         view.release()
         drawer.release()
-    result = engine.begin_result(0, 0, w, h)
-    result.layers[0].passes["Combined"].rect = rect
-    engine.end_result(result)

@@ -1,4 +1,5 @@
-"""File > Import > BTF Material: load a BTF, create a material for it, assign it to the selection.
+"""File > Import > BTF Material: load a BTF, create a material for it, assign it to the selection
+(or, from the material's BTF panel, fill that material: nothing is orphaned).
 
 Loading validates the whole BTF (BTFbase text tables take about a second) in a worker thread
 while a modal operator shows progress and honours Esc; nothing in the .blend changes until the
@@ -9,7 +10,6 @@ mode (no window to run a modal loop in) the same steps run synchronously.
 
 from __future__ import annotations
 
-import os
 import threading
 from pathlib import Path
 from typing import NamedTuple
@@ -25,6 +25,7 @@ from ..core.errors import BTFError
 from ..core.model import BTF
 from ..core.packed import pack
 from .export.meshes import GEOMETRY_OBJECT_TYPES
+from .paths import source_for, source_hint
 
 
 class LoadJob:
@@ -53,12 +54,9 @@ class LoadJob:
 
 
 def btf_source(filepath: str) -> Path:
-    """A .btfm file is the source itself; any file inside a BTFbase material folder (its
-    tables are text files) stands for the folder."""
-    path = Path(filepath)
-    if path.is_dir() or path.suffix.lower() == ".btfm":
-        return path
-    return path.parent
+    """A .btfm file or a folder is the source itself; any other file inside a BTFbase material
+    folder (its text tables, ``binary.btf``) stands for the folder (paths.source_for)."""
+    return Path(source_for(filepath))
 
 
 def display_colour(btf: BTF) -> tuple[float, float, float, float]:
@@ -70,6 +68,18 @@ def display_colour(btf: BTF) -> tuple[float, float, float, float]:
     return (*map(float, rgb), 1.0)
 
 
+def fill_material(material, source: str, btf: BTF) -> None:
+    """Make ``material`` render ``btf`` from ``source`` (its other settings kept), with the
+    BTF's mean colour for Solid view and other engines."""
+    material.btf.enabled = True
+    material.btf.source = source
+    material.diffuse_color = display_colour(btf)
+    if material.node_tree is not None:  # other engines show the mean colour
+        principled = material.node_tree.nodes.get("Principled BSDF")
+        if principled is not None:
+            principled.inputs["Base Color"].default_value = material.diffuse_color
+
+
 class CreatedMaterial(NamedTuple):
     material: bpy.types.Material
     assigned: int  # how many of the objects it was assigned to
@@ -79,13 +89,7 @@ def create_material(name: str, source: str, btf: BTF, objects) -> CreatedMateria
     """A new BTF material, assigned to those of ``objects`` that can hold one (into the active
     slot, or a new slot where an object has none)."""
     material = bpy.data.materials.new(name)
-    material.btf.enabled = True
-    material.btf.source = source
-    material.diffuse_color = display_colour(btf)
-    if material.node_tree is not None:  # other engines show the mean colour
-        principled = material.node_tree.nodes.get("Principled BSDF")
-        if principled is not None:
-            principled.inputs["Base Color"].default_value = material.diffuse_color
+    fill_material(material, source, btf)
     assigned = 0
     for obj in objects:
         if obj.type not in GEOMETRY_OBJECT_TYPES:
@@ -106,7 +110,16 @@ class BTF_OT_import_material(Operator, ImportHelper):
     bl_label = "Import BTF Material"
     bl_options = {"REGISTER", "UNDO"}
 
-    filter_glob: StringProperty(default="*.btfm;*.txt;*.dat", options={"HIDDEN"})
+    # SKIP_SAVE: a file dropped on the window (file_handler.py) runs at once; the menu entry
+    # must still open the browser, not reuse the last path.
+    filepath: StringProperty(subtype="FILE_PATH", options={"SKIP_SAVE"})
+    filter_glob: StringProperty(default="*.btfm;*.btf;*.txt;*.dat", options={"HIDDEN"})
+    target_material: StringProperty(
+        name="Material",
+        default="",
+        options={"HIDDEN", "SKIP_SAVE"},
+        description="Fill this material with the BTF instead of creating a new one",
+    )
     relative_path: BoolProperty(
         name="Relative Path",
         default=True,
@@ -130,6 +143,11 @@ class BTF_OT_import_material(Operator, ImportHelper):
             self.report({"ERROR"}, f"BTF import failed: {job.error}")
             return {"CANCELLED"}
         source = btf_source(self.filepath)
+        target = bpy.data.materials.get(self.target_material) if self.target_material else None
+        if target is not None:
+            fill_material(target, self._source_path(source), job.btf)
+            self.report({"INFO"}, f"material {target.name!r} now renders {source.name}")
+            return {"FINISHED"}
         selected = list(context.selected_objects) if hasattr(context, "selected_objects") else []
         material, assigned = create_material(
             source.stem if source.suffix else source.name,
@@ -140,11 +158,20 @@ class BTF_OT_import_material(Operator, ImportHelper):
         self.report({"INFO"}, f"created material {material.name!r}, assigned to {assigned} objects")
         return {"FINISHED"}
 
+    def invoke(self, context, event):
+        if self.filepath:  # dropped on the window (file_handler.py): no browser
+            return self.execute(context)
+        return super().invoke(context, event)
+
     def execute(self, context):
-        source = btf_source(self.filepath)
-        if not os.path.exists(source):
-            self.report({"ERROR"}, f"{source}: no such file or folder")
+        if self.target_material and self.target_material not in bpy.data.materials:
+            self.report({"ERROR"}, f"no material {self.target_material!r} to fill")
             return {"CANCELLED"}
+        hint = source_hint(self.filepath)
+        if hint:
+            self.report({"ERROR"}, hint)
+            return {"CANCELLED"}
+        source = btf_source(self.filepath)
         job = LoadJob(source).start()
         window = getattr(context, "window", None)
         if window is None or bpy.app.background:

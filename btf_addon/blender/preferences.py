@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import bpy
 from bpy.props import EnumProperty, PointerProperty
 from bpy.types import AddonPreferences
@@ -9,6 +11,10 @@ from bpy.types import AddonPreferences
 from ..cl.devices import best_device_index, list_devices
 from . import wiimote_preferences
 from .addon import ADDON_PACKAGE
+
+#: ``missing_source`` identifiers: what F12 does when a BTF material's source cannot be loaded.
+MISSING_FAIL = "FAIL"
+MISSING_PINK = "PINK"
 
 #: The ``opencl_device`` identifier of "best GPU, else the CPU".
 AUTOMATIC = "AUTO"
@@ -50,6 +56,16 @@ def preferred_device() -> int | None:
         return None
 
 
+def _preferences():
+    addon = bpy.context.preferences.addons.get(ADDON_PACKAGE)
+    return getattr(addon, "preferences", None)
+
+
+def missing_source_behaviour() -> str:
+    """``MISSING_FAIL`` (the default, also without a preferences entry) or ``MISSING_PINK``."""
+    return getattr(_preferences(), "missing_source", MISSING_FAIL)
+
+
 def device_items(_self=None, _context=None) -> list[tuple[str, str, str, int]]:
     global _device_error
     if not _device_items:
@@ -73,6 +89,18 @@ def device_items(_self=None, _context=None) -> list[tuple[str, str, str, int]]:
     return _device_items
 
 
+def opencl_help() -> str:
+    """What to install for OpenCL on this system, in a Blender user's words (no pip)."""
+    if sys.platform.startswith("linux"):
+        return (
+            "The Linux download bundles PoCL, a CPU driver: reinstall the extension if gone.\n"
+            "For GPU renders install your GPU's OpenCL driver (NVIDIA, AMD ROCm, Intel compute)."
+        )
+    if sys.platform == "darwin":
+        return "macOS provides OpenCL itself; check that nothing blocks the system framework."
+    return "Install your GPU vendor's driver (NVIDIA, AMD or Intel): each includes OpenCL."
+
+
 class BTF_AddonPreferences(AddonPreferences):
     bl_idname = ADDON_PACKAGE
 
@@ -80,6 +108,26 @@ class BTF_AddonPreferences(AddonPreferences):
         name="OpenCL Device",
         description="Device for final renders; Automatic picks the best GPU, else the CPU",
         items=device_items,
+    )
+    missing_source: EnumProperty(
+        name="Missing BTF Source",
+        description="What a final render does when a BTF material's source cannot be loaded",
+        items=[
+            (
+                MISSING_FAIL,
+                "Fail the Render",
+                "Stop with an error naming each missing source (render farms see a failed job)",
+                0,
+            ),
+            (
+                MISSING_PINK,
+                "Render Pink",
+                "Render the material in an unmistakable magenta, as Cycles does for a missing "
+                "texture, and warn",
+                1,
+            ),
+        ],
+        default=MISSING_FAIL,
     )
     wiimote: PointerProperty(type=wiimote_preferences.BTFWiimotePreferences, name="Wiimote")
 
@@ -90,7 +138,9 @@ class BTF_AddonPreferences(AddonPreferences):
         if _device_error:
             box = layout.box()
             box.label(text=f"OpenCL unavailable: {_device_error}", icon="ERROR")
-            box.label(text="Install a GPU driver, or: pip install pocl-binary-distribution")
+            for line in opencl_help().splitlines():
+                box.label(text=line)
+        layout.prop(self, "missing_source")
         wiimote_preferences.draw(layout, self.wiimote)
 
 

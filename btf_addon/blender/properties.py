@@ -16,6 +16,18 @@ def _tag_material(settings, _context) -> None:
     settings.id_data.update_tag()
 
 
+def _source_changed(settings, context) -> None:
+    """A file picked inside a BTFbase material folder means the folder (the browser of a
+    FILE_PATH property picks files): store the folder, then tag as any other change."""
+    from .paths import source_for  # paths imports the export chain: only when edited
+
+    normalised = source_for(settings.source)
+    if normalised != settings.source:
+        settings.source = normalised  # runs this again, with nothing left to change
+        return
+    _tag_material(settings, context)
+
+
 class BTFMaterialSettings(PropertyGroup):
     enabled: BoolProperty(
         update=_tag_material,
@@ -24,14 +36,14 @@ class BTFMaterialSettings(PropertyGroup):
         description="Render this material from a measured or synthetic BTF",
     )
     source: StringProperty(
-        update=_tag_material,
+        update=_source_changed,
         name="BTF Source",
         subtype="FILE_PATH",
         default="",
         # Blender 4.5+ warns about "//" paths unless the property says it supports them.
         options=compat.path_property_options(),
-        description="BTFbase material directory or .btfm file; relative paths (//) are kept "
-        "relative to the .blend so render farms find the data",
+        description="BTFbase material folder (or any file in it) or .btfm file; relative paths "
+        "(//) are kept relative to the .blend so render farms find the data",
     )
     uv_map: StringProperty(
         update=_tag_material,

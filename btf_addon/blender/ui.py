@@ -17,7 +17,8 @@ class BTF_PT_material(Panel):
 
     @classmethod
     def poll(cls, context) -> bool:
-        return context.material is not None
+        # Only under this engine: Cycles and EEVEE render the material's nodes, not its BTF.
+        return context.engine == ENGINE_ID and context.material is not None
 
     def draw_header(self, context) -> None:
         self.layout.prop(context.material.btf, "enabled", text="")
@@ -26,7 +27,9 @@ class BTF_PT_material(Panel):
         settings = context.material.btf
         layout = self.layout
         layout.use_property_split = True
-        layout.operator("btf.import_material", text="Import BTF…", icon="IMPORT")
+        # Fills this material (no new material, nothing orphaned).
+        op = layout.operator("btf.import_material", text="Load BTF…", icon="IMPORT")
+        op.target_material = context.material.name
         col = layout.column()
         col.active = settings.enabled
         col.prop(settings, "source")
@@ -65,6 +68,28 @@ class BTF_PT_render_settings(Panel):
         col.active = values.final_mode is FinalMode.SAMPLED
         col.prop(settings, "samples")
         col.prop(settings, "max_bounces")
+        draw_device(layout)
+
+
+def draw_device(layout) -> None:
+    """Which device F12 renders on: the preferences' choice (Automatic: the best GPU, else the
+    CPU) and what the last render actually used."""
+    from . import final_render, preferences
+
+    items = preferences.device_items()  # cached: OpenCL is queried once per session
+    chosen = preferences.device_identifier(preferences.preferred_device())
+    label = next((name for ident, name, _d, _n in items if ident == chosen), "Automatic")
+    if chosen == preferences.AUTOMATIC:
+        default = [name for ident, name, _d, _n in items if name.endswith("— default")]
+        label = default[0].removesuffix(" — default") if default else "none found"
+    box = layout.box()
+    col = box.column(align=True)
+    if len(items) > 1:
+        col.label(text=f"F12 device: {label}", icon="SYSTEM")
+    else:
+        col.label(text="F12 device: no OpenCL (GLSL fallback, no shadows)", icon="ERROR")
+    if final_render.last_device:
+        col.label(text=f"Last render: {final_render.last_device}")
 
 
 classes = (BTF_PT_material, BTF_PT_render_settings)

@@ -1,0 +1,343 @@
+"""BTF sources behave like image paths: farm-safe relative paths, File › External Data.
+
+Blender's own Make Paths Relative, Pack Resources and Report Missing Files are C operators that
+know only Blender's file types, with no Python hook; so this module gives BTF sources
+(``material.btf.source``: a BTFbase folder or a ``.btfm`` file) the same treatment:
+
+- a ``save_pre`` handler remaps sources as Blender remaps image paths on save: a relative
+  source keeps pointing at the same data when the .blend is saved elsewhere, and an absolute
+  one becomes relative when the file is saved for the first time (with the Preferences' File
+  Paths › Default Relative Paths on, Blender's default); ``save_post`` undoes the remap in the
+  open session after Save Copy, whose saved file lives elsewhere;
+- operators in File › External Data: Make BTF Paths Relative / Absolute, Report Missing BTF
+  Sources, Pack BTF Sources beside the .blend (copied into a ``btf_sources`` folder next to it,
+  paths made relative: the .blend and that folder render anywhere together);
+- F12's check for sources that cannot be loaded (``missing_sources``): the render fails naming
+  them, or, by the preference, renders them in Cycles' missing-texture magenta.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from dataclasses import replace
+from pathlib import Path
+from typing import NamedTuple
+
+import bpy
+from bpy.app.handlers import persistent
+from bpy.types import Operator
+
+from ..core.analytic import LambertianBTF
+from ..core.errors import BTFError
+from .export.materials import load_cached
+
+#: Folder beside the .blend that Pack BTF Sources copies sources into.
+PACK_FOLDER = "btf_sources"
+#: Cycles' missing-texture colour (magenta), as an albedo.
+ERROR_ALBEDO = (1.0, 0.0, 1.0)
+
+
+def btf_materials():
+    """The local materials (not linked from a library) that render from a BTF source."""
+    return [
+        m
+        for m in bpy.data.materials
+        if m.library is None and getattr(m, "btf", None) is not None and m.btf.source
+    ]
+
+
+def absolute(source: str, blend_path: str) -> str:
+    """``source`` as an absolute, normalised path; a "//" path is taken relative to the folder
+    of ``blend_path`` (unchanged when there is none: nothing to resolve it against)."""
+    if source.startswith("//"):
+        if not blend_path:
+            return source
+        return os.path.normpath(os.path.join(os.path.dirname(blend_path), source[2:]))
+    return os.path.normpath(os.path.abspath(source))
+
+
+def relative(source_abs: str, blend_path: str) -> str:
+    """``source_abs`` as a "//" path relative to ``blend_path``'s folder, or unchanged where
+    none exists (another drive on Windows)."""
+    try:
+        rel = os.path.relpath(source_abs, os.path.dirname(blend_path))
+    except ValueError:
+        return source_abs
+    return "//" + rel.replace(os.sep, "/")
+
+
+def remapped(source: str, old_blend: str, new_blend: str, make_relative: bool) -> str:
+    """Where a source points after the .blend moves from ``old_blend`` ('' = never saved) to
+    ``new_blend``: relative stays relative (to the same data), absolute becomes relative on the
+    first save when ``make_relative``, else stays absolute."""
+    if source.startswith("//"):
+        if not old_blend:
+            return source  # relative to nothing yet: leave as the user wrote it
+        return relative(absolute(source, old_blend), new_blend)
+    if not old_blend and make_relative:
+        return relative(absolute(source, ""), new_blend)
+    return source
+
+
+# Save Copy writes a file elsewhere but leaves this session's file where it was: the sources
+# remapped for the copy are restored after it is written.
+_before_save: dict[str, str] = {}
+
+
+@persistent
+def remap_on_save(filepath: str, *_args) -> None:
+    """save_pre: remap BTF sources for the file about to be written at ``filepath``."""
+    _before_save.clear()
+    if not filepath:
+        return  # the startup file
+    make_relative = bpy.context.preferences.filepaths.use_relative_paths
+    for material in btf_materials():
+        source = material.btf.source
+        new = remapped(source, bpy.data.filepath, filepath, make_relative)
+        if new != source:
+            _before_save[material.name] = source
+            material.btf.source = new
+
+
+@persistent
+def restore_after_copy(filepath: str, *_args) -> None:
+    """save_post: after Save Copy (the session's file did not move), put the sources back."""
+    if filepath and os.path.normpath(bpy.data.filepath) != os.path.normpath(filepath):
+        for name, source in _before_save.items():
+            material = bpy.data.materials.get(name)
+            if material is not None:
+                material.btf.source = source
+    _before_save.clear()
+
+
+class MissingSource(NamedTuple):
+    material: str
+    source: str
+    reason: str
+
+
+def source_problem(source: str) -> str:
+    """Why ``source`` cannot be rendered, or '' when it loads."""
+    if not source:
+        return "BTF enabled but no source set"
+    try:
+        load_cached(source)  # cached: free when F12's export has just loaded it
+    except (BTFError, OSError, ValueError) as exc:
+        return str(exc)
+    return ""
+
+
+def missing_sources(exported) -> list[MissingSource]:
+    """The BTF materials of an exported scene whose source cannot be loaded (F12 checks this:
+    the export itself falls back to the material's surface, which suits the viewport)."""
+    missing = []
+    for render_material in exported.materials:
+        material = bpy.data.materials.get(render_material.name)
+        settings = getattr(material, "btf", None)
+        if settings is None or not settings.enabled:
+            continue
+        problem = source_problem(settings.source)
+        if problem:
+            missing.append(MissingSource(material.name, settings.source, problem))
+    return missing
+
+
+def missing_message(missing: list[MissingSource]) -> str:
+    lines = [f"material {m.material!r}: {m.reason}" for m in missing]
+    return (
+        f"{len(missing)} BTF source(s) missing; nothing rendered:\n"
+        + "\n".join(lines)
+        + "\nFile › External Data › Report Missing BTF Sources lists them; the add-on's "
+        "preferences can render them magenta instead."
+    )
+
+
+def with_error_colour(exported, missing: list[MissingSource]):
+    """``exported`` with each missing material rendered magenta (Cycles' missing texture)."""
+    names = {m.material for m in missing}
+    for i, material in enumerate(exported.materials):
+        if material.name in names:
+            exported.materials[i] = replace(material, btf=LambertianBTF(ERROR_ALBEDO), exposure=0)
+    exported.messages.extend(
+        f"material {m.material!r} rendered magenta: {m.reason}" for m in missing
+    )
+    return exported
+
+
+#: The file that marks a BTFbase material folder.
+BTFBASE_MARKER = "all_materialInfo.txt"
+#: Files that are a BTF source on their own (not a table of a folder).
+SINGLE_FILE_SUFFIXES = (".btfm",)
+
+
+def is_btfbase_folder(folder: Path) -> bool:
+    return (folder / BTFBASE_MARKER).is_file()
+
+
+def source_for(filepath: str) -> str:
+    """The BTF source a chosen path stands for, in the same form (a "//" path stays relative):
+    a folder or a ``.btfm`` file is itself; any file inside a BTFbase material folder (a text
+    table, ``binary.btf``) stands for the folder; another file is itself (a single-file
+    format, or an error ``load_btf`` will name)."""
+    if not filepath:
+        return ""
+    stripped = filepath.rstrip("/\\") or filepath
+    resolved = Path(bpy.path.abspath(stripped))
+    if resolved.is_dir() or resolved.suffix.lower() in SINGLE_FILE_SUFFIXES:
+        return stripped
+    if is_btfbase_folder(resolved.parent):
+        return os.path.dirname(stripped)
+    return stripped
+
+
+def source_hint(filepath: str) -> str:
+    """What is wrong with a chosen path, in the file browser's words, or '' when it can be
+    loaded (as far as a glance tells: ``load_btf`` checks the rest)."""
+    if not filepath:
+        return (
+            "no BTF chosen: pick a BTFbase material folder (the one holding "
+            f"{BTFBASE_MARKER}) or a .btfm file"
+        )
+    source = Path(bpy.path.abspath(source_for(filepath)))
+    if not source.exists():
+        return f"{source}: no such file or folder"
+    if source.is_file() and source.suffix.lower() in (".txt", ".dat"):
+        return (
+            f"{source.name} is not a BTF on its own: pick the material's folder (the one holding "
+            f"{BTFBASE_MARKER} and the <material>_PDF6D tables) or a .btfm file"
+        )
+    return ""
+
+
+def _require_saved(operator) -> bool:
+    if not bpy.data.filepath:
+        operator.report({"ERROR"}, "save the .blend first: paths are relative to its folder")
+        return False
+    return True
+
+
+class BTF_OT_make_paths_relative(Operator):
+    """Make every BTF source relative to the .blend (as Make Paths Relative does for images)"""
+
+    bl_idname = "btf.make_paths_relative"
+    bl_label = "Make BTF Paths Relative"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        if not _require_saved(self):
+            return {"CANCELLED"}
+        changed = 0
+        for material in btf_materials():
+            new = relative(absolute(material.btf.source, bpy.data.filepath), bpy.data.filepath)
+            if new != material.btf.source:
+                material.btf.source, changed = new, changed + 1
+        self.report({"INFO"}, f"{changed} BTF source(s) made relative")
+        return {"FINISHED"}
+
+
+class BTF_OT_make_paths_absolute(Operator):
+    """Make every BTF source an absolute path"""
+
+    bl_idname = "btf.make_paths_absolute"
+    bl_label = "Make BTF Paths Absolute"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        if not _require_saved(self):
+            return {"CANCELLED"}
+        changed = 0
+        for material in btf_materials():
+            new = absolute(material.btf.source, bpy.data.filepath)
+            if new != material.btf.source:
+                material.btf.source, changed = new, changed + 1
+        self.report({"INFO"}, f"{changed} BTF source(s) made absolute")
+        return {"FINISHED"}
+
+
+class BTF_OT_report_missing(Operator):
+    """Report BTF materials whose source cannot be loaded"""
+
+    bl_idname = "btf.report_missing"
+    bl_label = "Report Missing BTF Sources"
+
+    def execute(self, context):
+        missing = 0
+        for material in btf_materials():
+            if not material.btf.enabled:
+                continue
+            problem = source_problem(material.btf.source)
+            if problem:
+                missing += 1
+                self.report({"WARNING"}, f"material {material.name!r}: {problem}")
+        self.report({"INFO"}, f"{missing} BTF source(s) missing")
+        return {"FINISHED"}
+
+
+class BTF_OT_pack_beside(Operator):
+    """Copy every BTF source into a btf_sources folder beside the .blend and point the
+    materials there (relative): the .blend and that folder render on any machine"""
+
+    bl_idname = "btf.pack_beside"
+    bl_label = "Pack BTF Sources beside the .blend"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        if not _require_saved(self):
+            return {"CANCELLED"}
+        folder = Path(bpy.data.filepath).parent / PACK_FOLDER
+        copied: dict[str, str] = {}  # absolute source → its copy, so shared sources copy once
+        for material in btf_materials():
+            source = absolute(material.btf.source, bpy.data.filepath)
+            if source not in copied:
+                if not os.path.exists(source):
+                    self.report({"WARNING"}, f"material {material.name!r}: {source} is missing")
+                    continue
+                target = folder / Path(source).name
+                if Path(source) != target:
+                    pack_copy(Path(source), target)
+                copied[source] = str(target)
+            material.btf.source = relative(copied[source], bpy.data.filepath)
+        self.report({"INFO"}, f"{len(copied)} BTF source(s) packed into {folder}")
+        return {"FINISHED"}
+
+
+def pack_copy(source: Path, target: Path) -> None:
+    """Copy a .btfm file or a BTFbase folder to ``target`` (replacing an older copy)."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    if source.is_dir():
+        shutil.copytree(source, target, dirs_exist_ok=True)
+    else:
+        shutil.copy2(source, target)
+
+
+def menu_external_data(self, context) -> None:
+    layout = self.layout
+    layout.separator()
+    layout.operator(BTF_OT_make_paths_relative.bl_idname)
+    layout.operator(BTF_OT_make_paths_absolute.bl_idname)
+    layout.operator(BTF_OT_report_missing.bl_idname)
+    layout.operator(BTF_OT_pack_beside.bl_idname)
+
+
+classes = (
+    BTF_OT_make_paths_relative,
+    BTF_OT_make_paths_absolute,
+    BTF_OT_report_missing,
+    BTF_OT_pack_beside,
+)
+_register, _unregister = bpy.utils.register_classes_factory(classes)
+
+
+def register() -> None:
+    _register()
+    bpy.types.TOPBAR_MT_file_external_data.append(menu_external_data)
+    bpy.app.handlers.save_pre.append(remap_on_save)
+    bpy.app.handlers.save_post.append(restore_after_copy)
+
+
+def unregister() -> None:
+    bpy.app.handlers.save_post.remove(restore_after_copy)
+    bpy.app.handlers.save_pre.remove(remap_on_save)
+    bpy.types.TOPBAR_MT_file_external_data.remove(menu_external_data)
+    _unregister()
