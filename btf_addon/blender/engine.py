@@ -60,13 +60,12 @@ EXCLUDED_PANELS = {
 
 def compatible_panels():
     """Built-in panels shown for Eevee/Workbench that make sense for this engine as well."""
-    for panel in bpy.types.Panel.__subclasses__():
-        engines = getattr(panel, "COMPAT_ENGINES", None)
-        if (
-            engines is not None
-            and "BLENDER_RENDER" in engines
-            and panel.__name__ not in EXCLUDED_PANELS
-        ):
+    panels = [p for p in bpy.types.Panel.__subclasses__() if hasattr(p, "COMPAT_ENGINES")]
+    # A subclass (the node editor's copy of a panel) shares its parent's set: exclude the set.
+    excluded = {id(p.COMPAT_ENGINES) for p in panels if p.__name__ in EXCLUDED_PANELS}
+    for panel in panels:
+        engines = panel.COMPAT_ENGINES
+        if "BLENDER_RENDER" in engines and id(engines) not in excluded:
             yield panel
 
 

@@ -1,0 +1,147 @@
+"""Which panels Blender shows under each engine, and what the BTF engine's panels list: the
+data it honours (export/lights.py, export/world.py, the passes F12 writes), nothing else.
+Panels are drawn into a recording layout (background Blender has no window to draw in) with
+real Blender data. No renders: a few seconds."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+from blender_helpers import extension_submodule, with_nodes
+
+ENGINE = "BTF_RENDER"
+
+
+class RecordingLayout:
+    """Stands in for bpy.types.UILayout: records each ``prop`` (data, name) and each node
+    view, and hands itself out for rows, columns and boxes."""
+
+    def __init__(self):
+        self.props: list[tuple[object, str]] = []
+        self.node_views: list[tuple] = []
+        self.labels: list[str] = []
+        self.operators: list[str] = []
+
+    def prop(self, data, name, **_kw):
+        assert name in data.bl_rna.properties, name  # a real property of that data
+        self.props.append((data, name))
+
+    def template_node_view(self, ntree, node, socket):
+        self.node_views.append((ntree, node, socket))
+
+    def label(self, text="", **_kw):
+        self.labels.append(text)
+
+    def operator(self, idname, **_kw):
+        self.operators.append(idname)
+        return SimpleNamespace()
+
+    def _child(self, *_a, **_kw):
+        return self
+
+    row = column = box = split = _child
+
+    def separator(self, **_kw):
+        pass
+
+
+def draw(panel, context) -> RecordingLayout:
+    layout = RecordingLayout()
+    panel.draw(SimpleNamespace(layout=layout), context)
+    return layout
+
+
+def names(layout: RecordingLayout) -> set[str]:
+    return {name for _data, name in layout.props}
+
+
+def panels():
+    return extension_submodule("btf_addon.blender.panels")
+
+
+@pytest.mark.parametrize(
+    ("light_type", "expected"),
+    [
+        ("POINT", {"type", "color", "energy", "shadow_soft_size"}),
+        ("SPOT", {"type", "color", "energy", "shadow_soft_size", "spot_size", "spot_blend"}),
+        ("SUN", {"type", "color", "energy"}),
+        ("AREA", {"type", "color", "energy", "shape", "size", "size_y"}),
+    ],
+)
+def test_light_panel_lists_what_the_engine_reads(bpy_module, fresh_scene, light_type, expected):
+    bpy = bpy_module
+    light = bpy.data.lights.new("L", light_type)
+    if light_type == "AREA":
+        light.shape = "RECTANGLE"
+    context = SimpleNamespace(engine=ENGINE, light=light)
+    panel = panels().BTF_LIGHT_PT_light
+    assert panel.poll(context)
+    assert not panel.poll(SimpleNamespace(engine="CYCLES", light=light))
+    drawn = names(draw(panel, context)) - {"exposure"}  # Blender 4.x+ lights have exposure
+    assert drawn == expected
+
+
+def test_world_panel_shows_the_node_tree(bpy_module, fresh_scene):
+    bpy = bpy_module
+    world = with_nodes(bpy.data.worlds.new("W"))
+    context = SimpleNamespace(engine=ENGINE, world=world)
+    panel = panels().BTF_WORLD_PT_surface
+    assert panel.poll(context) and not panel.poll(SimpleNamespace(engine="CYCLES", world=world))
+    layout = draw(panel, context)
+    (ntree, node, socket), *_ = layout.node_views
+    assert ntree == world.node_tree and node.type == "OUTPUT_WORLD" and socket.name == "Surface"
+
+
+def test_material_panels_by_engine(bpy_module, fresh_scene):
+    """The BTF panel only under this engine; the surface panel for a material without BTF;
+    Blender's slot list and preview gain this engine."""
+    bpy = bpy_module
+    material = with_nodes(bpy.data.materials.new("M"))
+    btf_panel = extension_submodule("btf_addon.blender.ui").BTF_PT_material
+    surface = panels().BTF_MATERIAL_PT_surface
+    for engine in ("CYCLES", "BLENDER_EEVEE_NEXT", "BLENDER_EEVEE", "BLENDER_WORKBENCH"):
+        context = SimpleNamespace(engine=engine, material=material)
+        assert not btf_panel.poll(context) and not surface.poll(context)
+    context = SimpleNamespace(engine=ENGINE, material=material)
+    assert btf_panel.poll(context) and surface.poll(context)
+    layout = draw(surface, context)
+    assert layout.node_views and layout.node_views[0][2].name == "Surface"
+    material.btf.enabled = True
+    assert not surface.poll(context)  # a BTF material: its BTF panel says it all
+    layout = draw(btf_panel, context)
+    assert {"source", "exposure"} <= names(layout)
+    assert layout.operators == ["btf.import_material"]
+    for name in ("EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_preview"):
+        assert ENGINE in getattr(bpy.types, name).COMPAT_ENGINES, name
+
+
+def test_passes_panel_lists_the_passes_f12_writes(bpy_module, fresh_scene):
+    bpy = bpy_module
+    view_layer = bpy.context.view_layer
+    context = SimpleNamespace(engine=ENGINE, view_layer=view_layer)
+    panel = panels().BTF_VIEWLAYER_PT_passes
+    assert panel.poll(context) and not panel.poll(SimpleNamespace(engine="CYCLES"))
+    assert names(draw(panel, context)) == {
+        "use_pass_combined",
+        "use_pass_z",
+        "use_pass_normal",
+        "use_pass_uv",
+    }
+    # Blender's own passes panel (EEVEE's and Workbench's passes) and light panel stay theirs.
+    for name in ("VIEWLAYER_PT_layer_passes", "DATA_PT_light", "DATA_PT_lightprobe"):
+        assert ENGINE not in getattr(bpy.types, name).COMPAT_ENGINES, name
+
+
+def test_render_panel_says_which_device_renders(bpy_module, fresh_scene):
+    """Automatic: the best device (GPU, else CPU) of the OpenCL drivers found, by name."""
+    bpy = bpy_module
+    ui = extension_submodule("btf_addon.blender.ui")
+    devices = extension_submodule("btf_addon.cl.devices")
+    found = devices.list_devices()
+    best = found[devices.best_device_index(found)]
+    layout = draw(
+        ui.BTF_PT_render_settings, SimpleNamespace(engine=ENGINE, scene=bpy.context.scene)
+    )
+    device = [t for t in layout.labels if t.startswith("F12 device:")]
+    assert len(device) == 1 and best.name in device[0], layout.labels
