@@ -1,0 +1,79 @@
+"""OpenCL out of the box: on Linux the zip bundles PoCL (pocl-binary-distribution), so F12
+from the installed extension ray traces on a machine with no OpenCL driver registered at all.
+
+The check runs in a fresh Blender process (bpy in a subprocess): an empty
+``OCL_ICD_VENDORS`` folder hides every system driver, and the extension's own site-packages
+is put first on sys.path, as in Blender, where it is the only pyopencl (this venv has its own,
+with PoCL, which would otherwise prove nothing). About 30 s (install and one 24 × 16 frame)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+
+import pytest
+from helpers import cli_env
+
+SCRIPT = r"""
+import json, math, sys
+import bpy
+
+zip_path, out = sys.argv[-2], sys.argv[-1]
+assert bpy.ops.extensions.package_install_files(
+    filepath=zip_path, repo="user_default", enable_on_install=True
+) == {"FINISHED"}
+site = bpy.utils.user_resource(
+    "EXTENSIONS", path=f".local/lib/python{sys.version_info[0]}.{sys.version_info[1]}/site-packages"
+)
+already = "pyopencl" in sys.modules  # imported before the path change: the test is void
+sys.path.insert(0, site)
+import importlib
+final_render = importlib.import_module(
+    "bl_ext.user_default.btf_materials.btf_addon.blender.final_render"
+)
+scene = bpy.context.scene
+scene.render.engine = "BTF_RENDER"
+scene.render.resolution_x, scene.render.resolution_y = 24, 16
+scene.render.resolution_percentage = 100
+scene.btf_render.lights_total = 4
+bpy.ops.mesh.primitive_cube_add()
+cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+scene.collection.objects.link(cam)
+cam.location = (0.0, -6.0, 0.0)
+cam.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+scene.camera = cam
+scene.render.filepath = out + ".png"
+result = bpy.ops.render.render(write_still=True)
+import pyopencl
+with open(out, "w") as fh:
+    json.dump({"result": sorted(result), "device": final_render.last_device,
+               "pyopencl": pyopencl.__file__, "site": site, "already": already}, fh)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PoCL is bundled for Linux")
+def test_f12_ray_traces_without_any_system_opencl(extension_zip, tmp_path):
+    user = tempfile.mkdtemp(prefix="btf-blender-user-", dir=tmp_path)
+    no_vendors = tmp_path / "no-vendors"
+    no_vendors.mkdir()
+    env = cli_env(
+        BLENDER_USER_RESOURCES=user, OCL_ICD_VENDORS=str(no_vendors), OCL_ICD_FILENAMES=""
+    )
+    out = tmp_path / "result.json"
+    proc = subprocess.run(
+        [sys.executable, "-c", SCRIPT, str(extension_zip), str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert proc.returncode == 0 and out.exists(), proc.stdout[-3000:] + proc.stderr[-3000:]
+    got = json.loads(out.read_text())
+    assert not got["already"], "pyopencl was imported before the extension's site-packages"
+    assert got["pyopencl"].startswith(got["site"]), got  # the bundled pyopencl, not the venv's
+    assert got["result"] == ["FINISHED"]
+    assert got["device"].startswith("OpenCL on"), (got, proc.stdout[-2000:])
+    assert "OpenCL unavailable" not in proc.stdout
