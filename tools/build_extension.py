@@ -69,7 +69,9 @@ def main() -> int:
         )
         return 1
     for zip_path in zips:
-        print(f"built and validated {zip_path}")
+        # The Linux zip is the largest: it bundles PoCL, the CPU OpenCL driver (~58 MB).
+        size_mb = zip_path.stat().st_size / 1e6
+        print(f"built and validated {zip_path} ({size_mb:.0f} MB)")
     return 0
 
 

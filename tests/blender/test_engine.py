@@ -140,7 +140,7 @@ def test_f12_reports_errors_instead_of_crashing(bpy_module, fresh_scene, tmp_pat
     bpy.context.object.data.materials.append(material)
     scene.render.filepath = str(tmp_path / "x.exr")
     blender_output(capfd)
-    with pytest.raises(RuntimeError, match="material 'Broken'.*missing.btfm"):
+    with pytest.raises(RuntimeError, match=r"material 'Broken'.*missing\.btfm"):
         bpy.ops.render.render(write_still=True)
     assert not (tmp_path / "x.exr").exists()
     material.btf.enabled = False
