@@ -83,9 +83,9 @@ def stamp() -> None:
 @persistent
 def upgrade_on_load(filepath: str = "", *_args) -> None:
     """load_post: upgrade a saved file (the startup file, with no path, is new: current
-    defaults are its defaults)."""
+    defaults are its defaults). The version itself is stamped on save only, so opening an
+    up-to-date file leaves it unmodified."""
     if not bpy.data.filepath:
-        stamp()
         return
     version = file_version()
     if version < SETTINGS_VERSION:
@@ -95,7 +95,6 @@ def upgrade_on_load(filepath: str = "", *_args) -> None:
                 f"BTF: {bpy.data.filepath} has settings version {version}; kept its look by "
                 f"setting the old defaults: {'; '.join(done)}"
             )
-    stamp()
 
 
 @persistent

@@ -30,7 +30,7 @@ def test_a_version_0_file_gets_its_old_defaults_explicitly(bpy_module, installed
     open_v0(bpy, tmp_path)
     scene = bpy.context.scene
     assert scene.render.engine == "BTF_RENDER" and bpy.data.materials["Woven"].btf.enabled
-    assert scene.btf_settings_version == versioning.SETTINGS_VERSION  # stamped on load
+    assert scene.btf_settings_version == 0  # saved before versioning; stamped on save
     present = [r for r in versioning.UPGRADES if r.prop in group_of(bpy, r).bl_rna.properties]
     assert any(r.prop == "final_mode" for r in present)  # exists today; others as they land
     for row in present:
@@ -40,6 +40,7 @@ def test_a_version_0_file_gets_its_old_defaults_explicitly(bpy_module, installed
     # Saved and reopened: the old values are now stored, and stay.
     bpy.ops.wm.save_mainfile()
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "settings_v0.blend"))
+    assert bpy.context.scene.btf_settings_version == versioning.SETTINGS_VERSION
     for row in present:
         assert getattr(group_of(bpy, row), row.prop) == row.old, row
 
