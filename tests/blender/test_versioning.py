@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import shutil
 
+import numpy as np
 from blender_helpers import extension_submodule
 from helpers import ROOT
 
@@ -14,7 +15,7 @@ DATA = ROOT / "tests" / "data"
 
 
 def open_v0(bpy, tmp_path):
-    for name in ("settings_v0.blend", "woven.btfm"):
+    for name in ("settings_v0.blend", "woven.btfm", "settings_v0.exr"):
         shutil.copy(DATA / name, tmp_path / name)
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "settings_v0.blend"))
 
@@ -63,3 +64,26 @@ def test_current_files_keep_current_defaults(bpy_module, installed, tmp_path):
         group = group_of(bpy, row)
         if row.prop in group.bl_rna.properties:
             assert not group.is_property_set(row.prop), row
+
+
+def test_a_version_0_file_renders_as_it_did(bpy_module, installed, tmp_path):
+    """The point of versioning: F12 of the old file equals the frame the old code rendered
+    (tests/data/settings_v0.exr), whatever defaults have changed since. Virtual Lights is
+    deterministic; 1e-4 of the brightest value allows for float reassociation between kernel
+    builds, far below any change of filtering, mapping or mode (those move whole texels)."""
+    from btf_addon.core.imageio import read_exr
+
+    bpy = bpy_module
+    open_v0(bpy, tmp_path)
+    scene = bpy.context.scene
+    image = scene.render.image_settings
+    if hasattr(image, "media_type"):  # Blender 5: a multilayer EXR or video first
+        image.media_type = "IMAGE"
+    image.file_format = "OPEN_EXR"
+    scene.render.filepath = str(tmp_path / "now.exr")
+    assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+    then = read_exr(tmp_path / "settings_v0.exr")
+    now = read_exr(tmp_path / "now.exr")
+    assert then.shape == now.shape == (24, 32, 3)
+    assert np.ptp(then) > 0.3  # a lit, textured plane, not an empty frame
+    np.testing.assert_allclose(now, then, rtol=0, atol=1e-4 * then.max())
