@@ -9,7 +9,9 @@ it never set (``is_property_set``), the default it was made with, written explic
 re-rendering an old file then matches the frames rendered before.
 
 To change a default: bump ``SETTINGS_VERSION`` and add one ``Upgrade`` row per changed
-property, with the version that changed it and the old value.
+property, with the version that changed it and the old value. Renaming an enum identifier needs
+no row as long as its number stays (Blender stores enum values by number; render_settings.py
+numbers them from the Python enums' values).
 """
 
 from __future__ import annotations
