@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import shared_material
+from helpers import count_periods, shared_material, stripe_btf
 
 from btf_addon.core.mapping import mapped_evaluate
 from btf_addon.core.mlvq import MLVQBTF
@@ -104,3 +104,21 @@ def test_opencl_mapping_matches_numpy(cl_context, rng, mapping, texel_filter):
     # (≤ 1 % of random points).
     allowed = 0 if texel_filter == "LINEAR" else int(0.01 * len(bad))
     assert int(bad.sum()) <= allowed, (int(bad.sum()), np.abs(got - ref).max())
+
+
+@pytest.mark.parametrize("mapping", ["UV", "BOX"])
+def test_opencl_real_world_size_shows_the_expected_number_of_tiles(cl_context, mapping):
+    """F12's side of tests/gl/test_mapping_render.py's tile count: a 0.5 m plane, 25 mm tile,
+    UVs repeating 3× (real-world size must ignore them) → 20 stripe periods across."""
+    from btf_addon.cl.renderer import CLRenderer
+    from btf_addon.core.envmap import Environment, VirtualLights
+    from btf_addon.scene.primitives import plane
+    from btf_addon.scene.scene import Camera, Scene, look_at
+
+    material = Material(stripe_btf(25.0), mapping=mapping, real_world=True, texel_filter="LINEAR")
+    camera = Camera(look_at((0, 0, 3), (0, 0, 0), (0, 1, 0)), perspective=False, ortho_scale=0.5)
+    black = Environment(np.zeros((4, 8, 3)))
+    scene = Scene([plane(0.5, uv_repeats=3.0)], [material], camera, black)
+    light = VirtualLights(np.array([[0.0, 0.0, 1.0]]), np.ones((1, 3)), np.ones(1))
+    image = CLRenderer(scene, 256, 8, cl_context).render_direct(light).combined[..., :3]
+    assert count_periods(image[4, :, 0]) == 20
