@@ -17,6 +17,7 @@ MODULES = (
     "import_btf",
     "engine",
     "ui",
+    "mapping_panel",  # after ui: a child of BTF_PT_material
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",
