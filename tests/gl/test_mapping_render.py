@@ -141,3 +141,41 @@ def test_real_world_size_shows_the_expected_number_of_tiles(gl_ctx, mapping):
     scene.metres_per_unit = 0.5
     image = GLSLRenderer(scene, width, 8, gl_ctx).render(one_light((0, 0, 1)))
     assert count_periods(image[4, :, 0]) == 10
+
+
+def _rotation(axis, deg: float) -> np.ndarray:
+    """(3, 3) rotation about ``axis`` by ``deg`` (Rodrigues)."""
+    k = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    a = np.radians(deg)
+    return np.eye(3) + np.sin(a) * kx + (1 - np.cos(a)) * kx @ kx
+
+
+@pytest.mark.parametrize("space", ["OBJECT", "WORLD"])
+def test_box_mapped_cube_turns_with_its_object_in_object_space_only(gl_ctx, space):
+    """Turn the cube, the camera and the light together: in object space the image is the
+    same (the tile and each face's anisotropy direction turned with the cube); in world space
+    the tile stays behind, by choice."""
+    from btf_addon.gl.renderer import GLSLRenderer
+    from btf_addon.scene.primitives import cube
+
+    btf = MLVQBTF.from_directory(shared_material("wallpaper"))
+    material = Material(
+        btf, mapping="BOX", box_space=space, box_blend=0.2, uv_scale=0.7, texel_filter="LINEAR"
+    )
+    eye, light = np.array([3.0, -4.0, 2.5]), np.array([0.3, -0.5, 1.0])
+    images = []
+    for turn in (np.eye(3), _rotation((1.0, 2.0, 0.5), 35.0)):
+        mesh = cube(2.0)
+        mesh.world_from_object = np.eye(4)
+        mesh.world_from_object[:3, :3] = turn
+        camera = Camera(look_at(turn @ eye, (0, 0, 0), turn @ np.array([0.0, 0.0, 1.0])))
+        scene = Scene([mesh], [material], camera, Environment(np.zeros((4, 8, 3))))
+        images.append(GLSLRenderer(scene, SIZE, SIZE, gl_ctx).render(one_light(turn @ light)))
+    a, b = images
+    rel = float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(a**2)))
+    if space == "OBJECT":
+        # float32 rounding of the turned geometry only (measured 6e-6 on llvmpipe)
+        assert rel < 1e-3, rel
+    else:
+        assert rel > 0.1, rel  # a different part of the tile on every face (measured 0.29)
