@@ -106,7 +106,9 @@ class BTFMaterialSettings(PropertyGroup):
     use_real_world_size: BoolProperty(
         update=_tag_material,
         name="Real-World Size",
-        default=True,
+        # Off unless chosen: Import BTF turns it on (with the mapping the mesh suits); a
+        # material set up by a script keeps one tile per UV unit, as before this existed.
+        default=False,
         description="Size the tile from the BTF's physical size and the scene's unit scale "
         "(UV mapping: from the mesh's UV density); UV Scale then multiplies it",
     )
