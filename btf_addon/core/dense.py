@@ -17,7 +17,7 @@ from .model import (
     BTF,
     BTFMeta,
     Queries,
-    tile_size_from_param,
+    tile_size_from_params,
     tile_size_param,
     wrap_texel,
 )
@@ -94,8 +94,7 @@ class DenseBTF(BTF):
     def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> DenseBTF:
         vg = RingGrid(tuple(params["view_grid"][0]), tuple(params["view_grid"][1]))
         lg = RingGrid(tuple(params["light_grid"][0]), tuple(params["light_grid"][1]))
-        size = tile_size_from_param(params.get("tile_size_mm"))
-        source = params.get("tile_size_source", "unknown")
+        size, source = tile_size_from_params(params, "stated by the source")
         return cls(tables["data"], vg, lg, params["name"], size, source)
 
 

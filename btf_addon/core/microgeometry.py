@@ -20,7 +20,7 @@ from .model import (
     BTF,
     BTFMeta,
     Queries,
-    tile_size_from_param,
+    tile_size_from_params,
     tile_size_param,
     wrap_texel,
 )
@@ -208,8 +208,7 @@ class MicrogeometryBTF(BTF):
             tables["albedo"],
             params["texels"],
             params["name"],
-            tile_size_from_param(params.get("tile_size_mm")),
-            params.get("tile_size_source", "synthetic"),
+            *tile_size_from_params(params, "synthetic"),
         )
 
 

@@ -184,10 +184,19 @@ def tile_size_param(size: tuple[float, float] | None) -> list[float] | None:
     return None if size is None else [float(size[0]), float(size[1])]
 
 
-def tile_size_from_param(value: Any) -> tuple[float, float] | None:
-    """The inverse of ``tile_size_param`` (containers written before sizes could be unknown
-    hold a list)."""
-    return None if value is None else (float(value[0]), float(value[1]))
+def tile_size_from_params(
+    params: dict[str, Any], default_source: str = "unknown"
+) -> tuple[tuple[float, float] | None, str]:
+    """(tile size or None, its source) from ``params()`` as stored. Containers written before
+    sizes could be unknown hold a list and no source; their 10 × 10 mm was the old default for
+    "not stated", so it reads as unknown."""
+    value = params.get("tile_size_mm")
+    if value is None:
+        return None, "unknown"
+    size = (float(value[0]), float(value[1]))
+    if "tile_size_source" not in params and size == (10.0, 10.0):
+        return None, "unknown"
+    return size, params.get("tile_size_source", default_source)
 
 
 def wrap_texel(uv: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

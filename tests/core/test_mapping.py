@@ -211,3 +211,15 @@ def test_box_mapping_is_seamless_with_a_blend_and_not_without(rng):
     # value from the coordinates; the blend adds ≤ 0.1°·(π/180)/0.3 ≈ 0.006 of a full swing.
     assert steps[0.3] < 0.05
     assert steps[0.0] > 3 * steps[0.3]  # the hard switch is a visible seam
+
+
+def test_old_containers_default_size_reads_as_unknown():
+    """Before sizes could be unknown every codec wrote 10 × 10 mm when nothing was known."""
+    from btf_addon.core.model import tile_size_from_params
+
+    assert tile_size_from_params({"tile_size_mm": [10.0, 10.0]}) == (None, "unknown")
+    assert tile_size_from_params({"tile_size_mm": [4.0, 4.0]}, "synthetic") == (
+        (4.0, 4.0),
+        "synthetic",
+    )
+    assert tile_size_from_params({"tile_size_mm": None}) == (None, "unknown")
