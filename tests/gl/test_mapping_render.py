@@ -91,6 +91,17 @@ def test_glsl_mapping_matches_numpy_per_pixel(gl_ctx, mapping, texel_filter):
     assert int(bad.sum()) <= allowed, (int(bad.sum()), float(np.abs(image - ref).max() / scale))
 
 
+def interior(depth: np.ndarray) -> np.ndarray:
+    """Surface pixels whose 8 neighbours are surface too: silhouettes excluded (a rasterised
+    and a ray-cast edge pixel may see different things, whatever the filter)."""
+    hit = depth < 1e9
+    out = hit.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            out &= np.roll(np.roll(hit, dy, axis=0), dx, axis=1)
+    return out
+
+
 @pytest.mark.opencl
 def test_filtering_removes_the_texel_edge_disagreement_between_glsl_and_opencl(
     cl_context, gl_ctx, rng
@@ -103,24 +114,25 @@ def test_filtering_removes_the_texel_edge_disagreement_between_glsl_and_opencl(
 
     btf = MLVQBTF.from_directory(shared_material("wallpaper"))
     env = Environment(rng.gamma(0.6, 1.0, size=(32, 64, 3)) * [1.0, 0.9, 0.7])
-    lights = env.virtual_lights(16, seed=1)
-    worst = {}
+    lights = env.virtual_lights(8, seed=1)
+    w, h = 96, 72
+    worst, picks = {}, {}
     for texel_filter in ("NEAREST", "LINEAR"):
         # 16 repeats: many texel edges per pixel row, so some pixel centres fall on one.
         material = Material(btf, uv_scale=16.0, texel_filter=texel_filter)
-        scene = Scene(
-            [uv_sphere(1.0, segments=96, rings=48)],
-            [material],
-            Camera(look_at((0, -2.2, 0.3), (0, 0, 0))),
-            env,
-        )
-        a = CLRenderer(scene, 160, 120, cl_context).render_direct(lights).combined[..., :3]
-        b = GLSLRenderer(scene, 160, 120, gl_ctx).render(lights)
-        worst[texel_filter] = float(np.abs(a - b).max() / np.abs(b).mean())
-    # Measured with PoCL and llvmpipe: nearest 0.15 of the mean at its worst pixel, linear
-    # 0.012 (the rasteriser's smooth-normal interpolation, as in the sphere parity tests).
-    assert worst["LINEAR"] < 0.03
-    assert worst["NEAREST"] > 2 * worst["LINEAR"]
+        camera = Camera(look_at((0, -2.2, 0.3), (0, 0, 0)))
+        scene = Scene([uv_sphere(1.0, segments=96, rings=48)], [material], camera, env)
+        passes = CLRenderer(scene, w, h, cl_context).render_direct(lights)
+        a = passes.combined[..., :3]
+        b = GLSLRenderer(scene, w, h, gl_ctx).render(lights)
+        inside = interior(np.asarray(passes.depth).reshape(h, w))
+        diff = np.abs(a - b).max(axis=-1)[inside] / np.abs(b[inside]).mean()
+        worst[texel_filter] = float(diff.max())
+        picks[texel_filter] = int((diff > 0.05).sum())
+    # Measured with PoCL and llvmpipe: nearest 5 pixels > 5 % of the mean (worst 0.21), linear
+    # none (worst 0.005, the rasteriser's smooth-normal interpolation).
+    assert worst["LINEAR"] < 0.02 and picks["LINEAR"] == 0, worst
+    assert picks["NEAREST"] >= 1 and worst["NEAREST"] > 5 * worst["LINEAR"], (worst, picks)
 
 
 @pytest.mark.parametrize("mapping", ["UV", "BOX"])
