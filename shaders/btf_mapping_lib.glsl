@@ -1,11 +1,13 @@
 /* The material's mapping at a fragment (btf_addon/core/mapping.py map_points and
  * mapped_evaluate; kernels/include/btf_surface.h map_point and btf_mapped do the same).
- * Needs the sampler material_blocks (one R32F row of MATERIAL_BLOCK_FLOATS per mesh, slots M_*
- * from btf_addon/core/packed.py) and the push constant material_block (x = this mesh's row). */
+ * Needs the sampler material_blocks (MATERIAL_BLOCK_FLOATS floats per mesh, slots M_* from
+ * btf_addon/core/packed.py, laid out TABLE_WIDTH floats a row as the BTF tables are) and the
+ * push constant material_block (x = this mesh's block index). */
 
 float mblock(int i)
 {
-  return texelFetch(material_blocks, ivec2(i, int(material_block.x + 0.5)), 0).r;
+  int k = int(material_block.x + 0.5) * MATERIAL_BLOCK_FLOATS + i;
+  return texelFetch(material_blocks, ivec2(k % TABLE_WIDTH, k / TABLE_WIDTH), 0).r;
 }
 
 /* Up to 3 projections: texture coordinates, tangent frame (with the shading normal), weight. */

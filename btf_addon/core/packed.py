@@ -215,7 +215,7 @@ class TableWriter:
                 f"{name}: index tables too large for the GLSL back end (an index or offset "
                 "reaches 2^24); use the OpenCL or numpy back end"
             )
-        return PackedTables(_layout(int_stream), _layout(float_stream))
+        return PackedTables(layout_stream(int_stream), layout_stream(float_stream))
 
 
 @dataclass(frozen=True)
@@ -269,7 +269,11 @@ def defines() -> dict[str, int]:
     return out
 
 
-def _layout(stream: np.ndarray) -> np.ndarray:
+def layout_stream(stream: np.ndarray) -> np.ndarray:
+    """A flat float stream as (rows, TABLE_WIDTH) float32, zero-padded: the texture layout of
+    the packed tables and of the material blocks (element i at column i % TABLE_WIDTH, row
+    i // TABLE_WIDTH)."""
+    stream = np.asarray(stream, dtype=np.float32).ravel()
     rows = max(1, -(-len(stream) // TABLE_WIDTH))
     out = np.zeros(rows * TABLE_WIDTH, dtype=np.float32)
     out[: len(stream)] = stream

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..core.envmap import VirtualLights
-from ..core.packed import pack
+from ..core.packed import layout_stream, pack
 from ..render.progressive import ProgressiveState
 from ..scene.lights import pack_lights
 from ..scene.scene import Mesh, Scene
@@ -161,9 +161,10 @@ class ProgressiveDrawer:
             self.no_lights = device.texture(np.zeros((1, 2, 4), dtype=np.float32))
         # Blender's lights: five RGBA texels each (scene/lights.py), drawn without shadows.
         self.scene_lights_tex = device.texture(pack_lights(scene.lights).reshape(1, -1, 4))
-        # Per mesh its material's parameter block (core/packed.py MATERIAL_BLOCK), one R32F
-        # row each: mapping, texel filter, exposure (shaders/btf_mapping_lib.glsl).
-        self.blocks_tex = device.texture(scene.material_blocks())
+        # Per mesh its material's parameter block (core/packed.py MATERIAL_BLOCK): mapping,
+        # texel filter, exposure (shaders/btf_mapping_lib.glsl), laid out TABLE_WIDTH floats
+        # a row as the BTF tables are, so any number of instances fits a texture's height.
+        self.blocks_tex = device.texture(layout_stream(scene.material_blocks().ravel()))
         if previous is not None:
             previous._hand_over(self)
 

@@ -191,3 +191,26 @@ def test_box_mapped_cube_turns_with_its_object_in_object_space_only(gl_ctx, spac
         assert rel < 1e-3, rel
     else:
         assert rel > 0.1, rel  # a different part of the tile on every face (measured 0.29)
+
+
+def test_material_blocks_past_the_first_texture_row(gl_ctx):
+    """Blocks are laid out TABLE_WIDTH floats a row (any number of instances fits): a mesh
+    whose block lies on the texture's second row draws as the same mesh drawn alone."""
+    from btf_addon.core.packed import MATERIAL_BLOCK_FLOATS, TABLE_WIDTH
+    from btf_addon.gl.renderer import GLSLRenderer
+
+    btf = MLVQBTF.from_directory(shared_material("wallpaper"))
+    shifted = Material(btf, uv_offset=(0.3, 0.6), uv_scale=0.4, texel_filter="LINEAR")
+    scene = tilted_plane_scene(shifted, (0.2, 0.1, 1.0), view=1.5)
+    alone = GLSLRenderer(scene, SIZE, SIZE, gl_ctx).render(one_light((0.2, -0.4, 1.0)))
+    hidden = TABLE_WIDTH // MATERIAL_BLOCK_FLOATS + 2  # the visible block on row 2
+    far = plane(0.01)
+    far.world_from_object = np.eye(4)
+    far.world_from_object[:3, 3] = (100.0, 100.0, 100.0)  # outside the view
+    scene.meshes = [far] * hidden + scene.meshes
+    scene.materials = [Material(btf), *scene.materials]
+    for m in scene.meshes[:hidden]:
+        assert m.material == 0
+    scene.meshes[-1].material = 1
+    many = GLSLRenderer(scene, SIZE, SIZE, gl_ctx).render(one_light((0.2, -0.4, 1.0)))
+    assert np.array_equal(many, alone)
