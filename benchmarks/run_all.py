@@ -9,6 +9,7 @@ import bench_decode
 import bench_envmap
 import bench_final_render
 import bench_interpolation
+import bench_mapping
 import bench_viewport
 import bench_vr
 import bench_wiimote
@@ -25,6 +26,7 @@ if __name__ == "__main__":
         bench_vr,
         bench_bridge,
         bench_final_render,
+        bench_mapping,
         bench_wiimote,
     ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")

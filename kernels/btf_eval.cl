@@ -19,3 +19,32 @@ __kernel void eval_btf(__global const float *q, __global const float *dirs, cons
   float3 value = btf_evaluate(I, F, (float2)(r[0], r[1]), wi, wo, r[2], r[3], r[4], r[5]);
   vstore3(value, gid, out);
 }
+
+/* The mapped lookup a renderer does at surface points (btf_addon/core/mapping.py
+ * mapped_evaluate, the reference): per point 20 floats — world position, unit shading normal,
+ * the mesh's tangent frame t and b, mesh uv, light and view directions (world, unit) — and
+ * one material block (MATERIAL_BLOCK_FLOATS floats). Exposure is not applied. */
+#include "btf_trace.h"
+#include "btf_surface.h"
+
+__kernel void eval_mapped(__global const float *points, __global const float *block, const int n,
+                          __global const float *I, __global const float *F, __global float *out)
+{
+  int gid = get_global_id(0);
+  if (gid >= n) {
+    return;
+  }
+  __global const float *r = points + 20 * gid;
+  SurfacePoint sp;
+  sp.p = vload3(0, r);
+  sp.n = vload3(0, r + 3);
+  sp.t = vload3(0, r + 6);
+  sp.b = vload3(0, r + 9);
+  sp.uv = vload2(0, r + 12);
+  float3 wi_world = vload3(0, r + 14), wo_world = vload3(0, r + 17);
+  sp.wo = (float3)(dot(wo_world, sp.t), dot(wo_world, sp.b), dot(wo_world, sp.n));
+  float3 wi = (float3)(dot(wi_world, sp.t), dot(wi_world, sp.b), dot(wi_world, sp.n));
+  map_point(&sp, block);
+  float3 value = (wi.z > 0.0f && sp.wo.z > 0.0f) ? btf_mapped(I, F, &sp, wi) : (float3)(0.0f);
+  vstore3(value, gid, out);
+}

@@ -88,9 +88,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
         continue;
       }
 #endif
-      float2 light = btf_theta_phi_deg(wi);
-      sum += btf_evaluate(I, F, sp.btf_uv, wi, sp.wo, light.x, light.y, sp.view.x, sp.view.y) *
-             vload3(0, lights + 8 * i + 4);
+      sum += btf_mapped(I, F, &sp, wi) * vload3(0, lights + 8 * i + 4);
     }
   }
   sum /= (float)max(n_lights, 1);
@@ -98,7 +96,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
     sum += blender_lights(&sp, I, F, scene_lights, scene_light_count, eps, bounds, links, corners,
                           0);
   }
-  sum *= material_params[8 * sp.material + 4];
+  sum *= sp.exposure;
   vstore4((float4)(sum, 1.0f), px, combined);
   depth[px] = dot(sp.p, camera_forward.xyz) + camera_forward.w; /* distance along the camera axis */
   vstore3(sp.n, px, normal_out);
@@ -193,7 +191,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
       __global const float *I = ints + material_offsets[2 * cur.material];
       __global const float *F = floats + material_offsets[2 * cur.material + 1];
-      float exposure = material_params[8 * cur.material + 4];
+      float exposure = cur.exposure;
       int pixel;
       /* 1. Next-event estimation: a direction from the environment's distribution. */
       {
@@ -217,9 +215,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                         &vs) < 0;
 #endif
         if (visible) {
-          float2 light = btf_theta_phi_deg(wi);
-          float3 value = btf_evaluate(I, F, cur.btf_uv, wi, cur.wo, light.x, light.y, cur.view.x,
-                                      cur.view.y);
+          float3 value = btf_mapped(I, F, &cur, wi);
           float weight = pdf_light * pdf_light / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
           sum += throughput * exposure * value * vload3(0, env + 4 * pixel) * env_params.y *
                  (weight / pdf_light);
@@ -237,9 +233,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         break;
       }
       float3 dir = lo.x * cur.t + lo.y * cur.b + lo.z * cur.n;
-      float2 light = btf_theta_phi_deg(lo);
-      float3 value = btf_evaluate(I, F, cur.btf_uv, lo, cur.wo, light.x, light.y, cur.view.x,
-                                  cur.view.y);
+      float3 value = btf_mapped(I, F, &cur, lo);
       float3 step = throughput * exposure * value / pdf_bsdf;
       float th = 0.0f, uh = 0.0f, vh = 0.0f;
       int hit = -1;

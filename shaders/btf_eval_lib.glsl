@@ -68,3 +68,29 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   float weight = (1.0 - metallic) * (1.0 - fresnel_view);
   return weight * albedo * on + fresnel * ggx;
 }
+
+/* btf_evaluate with spatial filtering (btf_addon/core/mapping.py filtered_evaluate, as
+ * btf_filtered in kernels/include/btf_packed.h): FILTER_LINEAR decodes the 4 texels around uv
+ * at their centres and blends them bilinearly, wrapping around the tile; FILTER_NEAREST (and
+ * one-texel BTFs) decode once at uv. light, view: (theta, phi) degrees. */
+vec3 btf_filtered(int texel_filter, vec2 uv, vec2 light, vec2 view)
+{
+  int width = itab(H_WIDTH), height = itab(H_HEIGHT);
+  if (texel_filter != FILTER_LINEAR || width * height <= 1) {
+    return btf_evaluate(uv, light.x, light.y, view.x, view.y);
+  }
+  vec2 size = vec2(float(width), float(height));
+  vec2 s = (uv - floor(uv)) * size - 0.5; /* mod first: large uv keep their fraction */
+  vec2 i0 = floor(s);
+  vec2 f = s - i0;
+  float x0 = mod(i0.x, size.x), y0 = mod(i0.y, size.y);
+  float x1 = mod(x0 + 1.0, size.x), y1 = mod(y0 + 1.0, size.y);
+  vec3 sum = vec3(0.0);
+  for (int k = 0; k < 4; k++) {
+    float x = (k % 2 == 1) ? x1 : x0, y = (k >= 2) ? y1 : y0;
+    float w = ((k % 2 == 1) ? f.x : 1.0 - f.x) * ((k >= 2) ? f.y : 1.0 - f.y);
+    vec2 centre = vec2((x + 0.5) / size.x, (y + 0.5) / size.y);
+    sum += w * btf_evaluate(centre, light.x, light.y, view.x, view.y);
+  }
+  return sum;
+}

@@ -55,8 +55,9 @@ vec3 scene_light_sample(int light, vec3 p, vec2 u, out vec3 dir)
   return r1.rgb * (mask / max(len * len, 1e-12));
 }
 
-/* Sum over the lights at p with the shading frame (t, b, n); wo already in that frame. */
-vec3 scene_lights_sum(int count, vec3 p, vec3 t, vec3 b, vec3 n, vec2 uv, vec2 view)
+/* Sum over the lights at p with the shading frame (t, b, n), seen from wo_world; the BTF
+ * through the fragment's mapping (btf_mapping_lib.glsl map_point ran first). */
+vec3 scene_lights_sum(int count, vec3 p, vec3 t, vec3 b, vec3 n, vec3 wo_world)
 {
   vec3 sum = vec3(0.0);
   for (int i = 0; i < count; i++) {
@@ -70,8 +71,7 @@ vec3 scene_lights_sum(int count, vec3 p, vec3 t, vec3 b, vec3 n, vec2 uv, vec2 v
       if (wi.z <= 0.0 || !(e.r + e.g + e.b > 0.0)) {
         continue;
       }
-      vec2 light = theta_phi_deg(wi);
-      sum += btf_evaluate(uv, light.x, light.y, view.x, view.y) * e / float(samples);
+      sum += btf_mapped(n, dir, wo_world) * e / float(samples);
     }
   }
   return sum;

@@ -4,7 +4,8 @@
  * lights: 2 texels per light, (direction.xyz, 0) then (radiance / pdf).rgb, 0), world space.
  * camera: xyz = camera position, w = 1 (perspective); or xyz = direction towards the camera,
  *         w = 0 (orthographic).
- * uv_transform: mat2 (column-major in a vec4) from mesh UVs to BTF texture coordinates.
+ * material_block: x = this mesh's row of material_blocks, its material's mapping, texel
+ *                 filter and exposure (shaders/btf_mapping_lib.glsl).
  * light_range: x = first light, y = how many, z = exposure multiplier, w = how many Blender
  *              lights scene_lights holds (shaders/scene_lights_lib.glsl). Each batch adds them
  *              × its light count, so the resolve's division by the lights so far leaves them
@@ -21,8 +22,7 @@ void main()
   t = t_len > 1e-8 ? t / t_len : normalize(cross(abs(n.z) < 0.9 ? vec3(0, 0, 1) : vec3(1, 0, 0), n));
   vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0) * side;
   vec3 wo = to_tangent(wo_world, t, b, n);
-  vec2 view = theta_phi_deg(wo);
-  vec2 uv = mat2(uv_transform.xy, uv_transform.zw) * v_uv;
+  map_point(v_world, n, t, b, v_uv);
   vec3 sum = vec3(0.0);
   int first = int(light_range.x), count = int(light_range.y);
   for (int i = first; i < first + count; i++) {
@@ -32,12 +32,11 @@ void main()
     if (wi.z <= 0.0 || wo.z <= 0.0) {
       continue;
     }
-    vec2 light = theta_phi_deg(wi);
-    sum += btf_evaluate(uv, light.x, light.y, view.x, view.y) * weight;
+    sum += btf_mapped(n, dir, wo_world) * weight;
   }
   int blender_lights = int(light_range.w);
   if (count > 0 && blender_lights > 0 && wo.z > 0.0) {
-    sum += float(count) * scene_lights_sum(blender_lights, v_world, t, b, n, uv, view);
+    sum += float(count) * scene_lights_sum(blender_lights, v_world, t, b, n, wo_world);
   }
   frag_color = vec4(sum * light_range.z, 1.0);
 }

@@ -180,3 +180,23 @@ def read_png(path) -> np.ndarray:
                 line[x] = (row[x] + predictor) & 255
         out[y] = previous = line
     return out.reshape(height, width, channels).astype(np.uint8)
+
+
+# --- mapping (tests/gl/test_mapping_render.py, tests/kernels/test_mapping_kernel.py) ----------
+def stripe_btf(tile_mm: float):
+    """A dense BTF of 8 × 1 texels, half dark and half bright, the same at every angle: one
+    stripe period per tile along u, and a tile of ``tile_mm`` square."""
+    from btf_addon.core.dense import DenseBTF
+    from btf_addon.core.grid import RingGrid
+
+    image = np.zeros((1, 8, 3), dtype=np.float32)
+    image[:, :4] = 0.1
+    image[:, 4:] = 0.9
+    flat = RingGrid((0.0,), (1,))
+    return DenseBTF(image[None, None], flat, flat, tile_size_mm=(tile_mm, tile_mm))
+
+
+def count_periods(row: np.ndarray) -> int:
+    """Dominant number of periods along a 1D signal (its strongest non-DC frequency)."""
+    spectrum = np.abs(np.fft.rfft(row - row.mean()))
+    return int(np.argmax(spectrum[1:]) + 1)

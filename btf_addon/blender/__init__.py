@@ -19,6 +19,7 @@ MODULES = (
     "import_btf",
     "engine",
     "ui",
+    "mapping_panel",  # after ui: a child of BTF_PT_material
     "panels",  # Blender's own panels for this engine, by what it honours
     "file_handler",
     "wiimote_overlay",

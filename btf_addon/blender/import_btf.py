@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, StringProperty
+from bpy.props import BoolProperty, FloatProperty, StringProperty
 from bpy.types import Operator
 from bpy_extras.io_utils import ImportHelper
 
@@ -80,6 +80,27 @@ def fill_material(material, source: str, btf: BTF) -> None:
             principled.inputs["Base Color"].default_value = material.diffuse_color
 
 
+#: Texel size assumed when a BTF does not state its physical size (BTFbase's tables do not):
+#: 0.1 mm (≈ 250 DPI) is a middle-of-the-road guess for measured BTFs; the import dialog
+#: shows it, the material stores it, the Mapping panel says it came from the import.
+DEFAULT_TEXEL_MM = 0.1
+
+
+def place_on(material, btf: BTF, objects, texel_mm: float = DEFAULT_TEXEL_MM) -> None:
+    """Mapping defaults for a new import (issue 20): UV with real-world size where every
+    target mesh has a UV map, else Box in object space; a tile size from ``texel_mm`` per
+    texel where the BTF states none (stored on the material)."""
+    settings = material.btf
+    targets = [o for o in objects if o.type in GEOMETRY_OBJECT_TYPES]
+    unwrapped = all(o.type == "MESH" and len(o.data.uv_layers) > 0 for o in targets)
+    settings.mapping = "UV" if targets and unwrapped else "BOX"
+    settings.box_space = "OBJECT"
+    settings.use_real_world_size = True
+    settings.texel_filter = "LINEAR"
+    if btf.meta.tile_size_mm is None:
+        settings.tile_size_mm = (texel_mm * btf.meta.width, texel_mm * btf.meta.height)
+
+
 class CreatedMaterial(NamedTuple):
     material: bpy.types.Material
     assigned: int  # how many of the objects it was assigned to
@@ -125,6 +146,16 @@ class BTF_OT_import_material(Operator, ImportHelper):
         default=True,
         description="Store the path relative to the .blend file, so other machines find it",
     )
+    texel_size_mm: FloatProperty(
+        name="Texel Size (mm)",
+        default=DEFAULT_TEXEL_MM,
+        min=1e-4,
+        soft_max=10.0,
+        precision=3,
+        description="Physical size of one texel, used only when the BTF does not state its "
+        "size (BTFbase materials do not; UBO2014 files do). The tile is this × its texels; "
+        "change it later in the material's Mapping panel",
+    )
 
     _job: LoadJob | None = None
     _timer = None
@@ -146,6 +177,8 @@ class BTF_OT_import_material(Operator, ImportHelper):
         target = bpy.data.materials.get(self.target_material) if self.target_material else None
         if target is not None:
             fill_material(target, self._source_path(source), job.btf)
+            users = [o for o in bpy.data.objects if target in [s.material for s in o.material_slots]]
+            place_on(target, job.btf, users, self.texel_size_mm)
             self.report({"INFO"}, f"material {target.name!r} now renders {source.name}")
             return {"FINISHED"}
         selected = list(context.selected_objects) if hasattr(context, "selected_objects") else []
@@ -155,6 +188,7 @@ class BTF_OT_import_material(Operator, ImportHelper):
             job.btf,
             selected,
         )
+        place_on(material, job.btf, selected, self.texel_size_mm)
         self.report({"INFO"}, f"created material {material.name!r}, assigned to {assigned} objects")
         return {"FINISHED"}
 

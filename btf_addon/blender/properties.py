@@ -3,7 +3,14 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, FloatProperty, PointerProperty, StringProperty
+from bpy.props import (
+    BoolProperty,
+    EnumProperty,
+    FloatProperty,
+    FloatVectorProperty,
+    PointerProperty,
+    StringProperty,
+)
 from bpy.types import PropertyGroup
 
 from . import compat
@@ -73,6 +80,90 @@ class BTFMaterialSettings(PropertyGroup):
         soft_min=-10.0,
         soft_max=10.0,
         description="Brightness change in stops (×2 per stop)",
+    )
+    # --- mapping (core/mapping.py documents each; blender/mapping_panel.py draws them) -------
+    # Identifiers and defaults are fixed names: settings versioning upgrades files saved
+    # before they existed to today's look (NEAREST, UV, no real-world size).
+    mapping: EnumProperty(
+        update=_tag_material,
+        name="Mapping",
+        items=(
+            ("UV", "UV", "Place the tile by the mesh's UV map", 0),
+            (
+                "BOX",
+                "Box",
+                "Project the tile along the object's (or world's) three axes, "
+                "blended near edges (triplanar); needs no UV map",
+                1,
+            ),
+        ),
+        default="UV",
+        description="How the BTF tile is placed on the surface",
+    )
+    texel_filter: EnumProperty(
+        update=_tag_material,
+        name="Texel Filter",
+        items=(
+            (
+                "LINEAR",
+                "Linear",
+                "Blend the 4 nearest texels (as Blender's Image Texture); four decodes per lookup",
+                0,
+            ),
+            ("NEAREST", "Closest", "The nearest texel: blocky in close-ups, 4× cheaper", 1),
+        ),
+        default="LINEAR",
+        description="Spatial filtering of the BTF's texels",
+    )
+    use_real_world_size: BoolProperty(
+        update=_tag_material,
+        name="Real-World Size",
+        # Off unless chosen: Import BTF turns it on (with the mapping the mesh suits); a
+        # material set up by a script keeps one tile per UV unit, as before this existed.
+        default=False,
+        description="Size the tile from the BTF's physical size and the scene's unit scale "
+        "(UV mapping: from the mesh's UV density); UV Scale then multiplies it",
+    )
+    tile_size_mm: FloatVectorProperty(
+        update=_tag_material,
+        name="Tile Size (mm)",
+        size=2,
+        default=(0.0, 0.0),
+        min=0.0,
+        soft_max=1000.0,
+        description="Physical size of one BTF tile (u, v) in millimetres; 0 = the size the "
+        "BTF file states (unknown for BTFbase: Import asks for it)",
+    )
+    uv_offset: FloatVectorProperty(
+        update=_tag_material,
+        name="Offset",
+        size=2,
+        default=(0.0, 0.0),
+        description="Shift of the tile, in tiles",
+    )
+    box_space: EnumProperty(
+        update=_tag_material,
+        name="Box Space",
+        items=(
+            (
+                "OBJECT",
+                "Object",
+                "The tile moves and turns with the object (keeps its "
+                "real-world size when the object is scaled)",
+                0,
+            ),
+            ("WORLD", "World", "The tile stays in the world: objects slide through it", 1),
+        ),
+        default="OBJECT",
+        description="Coordinates the box projection uses",
+    )
+    box_blend: FloatProperty(
+        update=_tag_material,
+        name="Blend",
+        default=0.2,
+        min=0.0,
+        max=1.0,
+        description="Width of the blend between box projections near edges (0: hard seams)",
     )
 
     @classmethod

@@ -33,9 +33,6 @@ class BTF_PT_material(Panel):
         col = layout.column()
         col.active = settings.enabled
         col.prop(settings, "source")
-        col.prop(settings, "uv_map")
-        col.prop(settings, "uv_scale")
-        col.prop(settings, "uv_rotation")
         col.prop(settings, "exposure")
 
 

@@ -81,10 +81,11 @@ class CLRenderer:
 
     def _upload_geometry(self) -> None:
         corners, materials = [], []
-        for mesh in self.scene.meshes:
+        for i, mesh in enumerate(self.scene.meshes):
             data = mesh.world_space_corners()
             corners.append(data)
-            materials.append(np.full(len(data) // 3, mesh.material, dtype=np.int32))
+            # per triangle: its mesh's row of the material blocks (kernels/include/btf_surface.h)
+            materials.append(np.full(len(data) // 3, i, dtype=np.int32))
         corners = np.concatenate(corners) if corners else np.zeros((0, 12), np.float32)
         tri_material = np.concatenate(materials) if materials else np.zeros(0, np.int32)
         tris = corners.reshape(-1, 3, 12)
@@ -106,7 +107,7 @@ class CLRenderer:
         self.tri_material = self._buffer(tri_material, np.int32)
 
     def _upload_materials(self) -> None:
-        ints, floats, offsets, params = [], [], [], []
+        ints, floats, offsets = [], [], []
         i_cursor = f_cursor = 0
         for material in self.scene.materials:
             packed = pack(material.btf)
@@ -115,12 +116,11 @@ class CLRenderer:
             offsets += [i_cursor, f_cursor]
             i_cursor += packed.ints.size
             f_cursor += packed.floats.size
-            m = material.uv_transform()
-            params.append([m[0, 0], m[1, 0], m[0, 1], m[1, 1], 2.0**material.exposure, 0, 0, 0])
         self.ints = self._buffer(np.concatenate(ints) if ints else [], np.float32)
         self.floats = self._buffer(np.concatenate(floats) if floats else [], np.float32)
         self.material_offsets = self._buffer(offsets, np.int32)
-        self.material_params = self._buffer(np.array(params, dtype=np.float32).ravel(), np.float32)
+        # One parameter block per mesh (core/packed.py MATERIAL_BLOCK: mapping, filter, exposure).
+        self.material_params = self._buffer(self.scene.material_blocks().ravel(), np.float32)
 
     def _scene_args(self) -> list:
         """Kernel arguments shared by both modes, after the view: geometry and materials."""

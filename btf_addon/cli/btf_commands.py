@@ -102,7 +102,9 @@ def cmd_info(args) -> int:
         "views": meta.n_views,
         "lights": meta.n_lights,
         "hdr": meta.hdr,
-        "tile_size_mm": list(meta.tile_size_mm),
+        # physical size of one tile: null when the source states none (the import asks)
+        "tile_size_mm": None if meta.tile_size_mm is None else list(meta.tile_size_mm),
+        "tile_size_source": meta.tile_size_source,
         "value_scale": meta.value_scale,
         "bytes_on_disk": on_disk,
         "raw_bytes": meta.raw_bytes,

@@ -43,6 +43,7 @@ def _analytic_meta(codec: str, tile_size_mm) -> BTFMeta:
         n_lights=0,
         angular_grid="analytic",
         tile_size_mm=tuple(tile_size_mm),
+        tile_size_source="analytic: uniform, any size looks the same",
     )
 
 

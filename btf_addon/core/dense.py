@@ -13,7 +13,14 @@ import numpy as np
 
 from .errors import BTFFormatError
 from .grid import UBO2003, RingGrid
-from .model import BTF, BTFMeta, Queries, wrap_texel
+from .model import (
+    BTF,
+    BTFMeta,
+    Queries,
+    tile_size_from_params,
+    tile_size_param,
+    wrap_texel,
+)
 from .packed import TableWriter, register_codec
 
 
@@ -24,7 +31,8 @@ class DenseBTF(BTF):
         view_grid: RingGrid = UBO2003,
         light_grid: RingGrid = UBO2003,
         name: str = "dense",
-        tile_size_mm: tuple[float, float] = (10.0, 10.0),
+        tile_size_mm: tuple[float, float] | None = None,
+        tile_size_source: str = "unknown",
     ):
         data = np.asarray(data, dtype=np.float32)
         expected = (view_grid.size, light_grid.size)
@@ -45,7 +53,8 @@ class DenseBTF(BTF):
             n_views=view_grid.size,
             n_lights=light_grid.size,
             angular_grid=f"rings view {view_grid.size} x light {light_grid.size}",
-            tile_size_mm=tuple(tile_size_mm),
+            tile_size_mm=tile_size_mm,
+            tile_size_source=tile_size_source,
         )
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
@@ -77,14 +86,16 @@ class DenseBTF(BTF):
             "view_grid": [list(self.view_grid.theta_deg), list(self.view_grid.counts)],
             "light_grid": [list(self.light_grid.theta_deg), list(self.light_grid.counts)],
             "name": self.meta.name,
-            "tile_size_mm": list(self.meta.tile_size_mm),
+            "tile_size_mm": tile_size_param(self.meta.tile_size_mm),
+            "tile_size_source": self.meta.tile_size_source,
         }
 
     @classmethod
     def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> DenseBTF:
         vg = RingGrid(tuple(params["view_grid"][0]), tuple(params["view_grid"][1]))
         lg = RingGrid(tuple(params["light_grid"][0]), tuple(params["light_grid"][1]))
-        return cls(tables["data"], vg, lg, params["name"], tuple(params["tile_size_mm"]))
+        size, source = tile_size_from_params(params, "stated by the source")
+        return cls(tables["data"], vg, lg, params["name"], size, source)
 
 
 def tabulate(
@@ -115,6 +126,7 @@ def tabulate(
         light_grid,
         name=f"{btf.meta.name} (tabulated)",
         tile_size_mm=btf.meta.tile_size_mm,
+        tile_size_source=btf.meta.tile_size_source,
     )
 
 

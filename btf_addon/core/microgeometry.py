@@ -16,7 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from .model import BTF, BTFMeta, Queries, wrap_texel
+from .model import (
+    BTF,
+    BTFMeta,
+    Queries,
+    tile_size_from_params,
+    tile_size_param,
+    wrap_texel,
+)
 
 #: Horizon-map azimuth bins; the soft shadow edge width in tan(elevation).
 N_AZIMUTH = 32
@@ -52,7 +59,8 @@ class MicrogeometryBTF(BTF):
         albedo: np.ndarray,
         texels: int,
         name: str,
-        tile_size_mm: tuple[float, float] = (10.0, 10.0),
+        tile_size_mm: tuple[float, float] | None = None,
+        tile_size_source: str = "synthetic",
     ):
         # Stored as float32, the container's precision, so a saved preset evaluates identically.
         height = np.asarray(height, dtype=np.float32).astype(np.float64)
@@ -77,7 +85,8 @@ class MicrogeometryBTF(BTF):
             n_views=0,
             n_lights=0,
             angular_grid="procedural (ray cast)",
-            tile_size_mm=tuple(tile_size_mm),
+            tile_size_mm=tile_size_mm,
+            tile_size_source=tile_size_source,
         )
 
     def _horizon_map(self) -> np.ndarray:
@@ -188,7 +197,8 @@ class MicrogeometryBTF(BTF):
         return {
             "texels": self.meta.width,
             "name": self.meta.name,
-            "tile_size_mm": list(self.meta.tile_size_mm),
+            "tile_size_mm": tile_size_param(self.meta.tile_size_mm),
+            "tile_size_source": self.meta.tile_size_source,
         }
 
     @classmethod
@@ -198,7 +208,7 @@ class MicrogeometryBTF(BTF):
             tables["albedo"],
             params["texels"],
             params["name"],
-            tuple(params["tile_size_mm"]),
+            *tile_size_from_params(params, "synthetic"),
         )
 
 

@@ -28,7 +28,11 @@ CHUNK = 1 << 17
 class BTFMeta:
     """Metadata shared by all codecs.
 
-    width, height: texels along u and v. tile_size_mm: physical size of one texture repeat.
+    width, height: texels along u and v. tile_size_mm: physical size (u, v) of one texture
+    repeat in millimetres, or None where the source does not state one (BTFbase's text tables,
+    a dense table without a size): nothing guesses a size silently; the Blender import asks.
+    tile_size_source: where the size came from, in words ("unknown" when None; e.g. "UBO2014
+    pixels per mm", "synthetic", "entered at import").
     n_views, n_lights: the measurement (or tabulation) grid sizes; raw_bytes uses them.
     value_scale: factor from the codec's stored units to the value convention.
     """
@@ -41,9 +45,23 @@ class BTFMeta:
     n_lights: int
     angular_grid: str
     hdr: bool = False
-    tile_size_mm: tuple[float, float] = (10.0, 10.0)
+    tile_size_mm: tuple[float, float] | None = None
     value_scale: float = 1.0
     extra: dict[str, Any] = field(default_factory=dict)
+    tile_size_source: str = "unknown"
+
+    def __post_init__(self) -> None:
+        size = self.tile_size_mm
+        if size is not None:
+            size = (float(size[0]), float(size[1]))
+            if not all(np.isfinite(size)) or min(size) <= 0.0:
+                raise ValueError(f"tile_size_mm must be two positive sizes, got {size}")
+        # frozen: the normalised values go in through object.__setattr__ (dataclass idiom)
+        object.__setattr__(self, "tile_size_mm", size)
+        if size is None:
+            object.__setattr__(self, "tile_size_source", "unknown")
+        elif self.tile_size_source == "unknown":
+            object.__setattr__(self, "tile_size_source", "stated by the source")
 
     @property
     def raw_bytes(self) -> int:
@@ -52,7 +70,7 @@ class BTFMeta:
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
-        d["tile_size_mm"] = list(self.tile_size_mm)
+        d["tile_size_mm"] = None if self.tile_size_mm is None else list(self.tile_size_mm)
         d["raw_bytes"] = self.raw_bytes
         return d
 
@@ -159,6 +177,26 @@ def _canonical(theta_deg: np.ndarray, phi_deg: np.ndarray) -> tuple[np.ndarray, 
     theta = np.abs(theta_deg)
     phi = np.where(negative, phi_deg + 180.0, phi_deg) % 360.0
     return theta, phi
+
+
+def tile_size_param(size: tuple[float, float] | None) -> list[float] | None:
+    """A tile size as stored in ``params()`` (JSON): a list, or None for unknown."""
+    return None if size is None else [float(size[0]), float(size[1])]
+
+
+def tile_size_from_params(
+    params: dict[str, Any], default_source: str = "unknown"
+) -> tuple[tuple[float, float] | None, str]:
+    """(tile size or None, its source) from ``params()`` as stored. Containers written before
+    sizes could be unknown hold a list and no source; their 10 × 10 mm was the old default for
+    "not stated", so it reads as unknown."""
+    value = params.get("tile_size_mm")
+    if value is None:
+        return None, "unknown"
+    size = (float(value[0]), float(value[1]))
+    if "tile_size_source" not in params and size == (10.0, 10.0):
+        return None, "unknown"
+    return size, params.get("tile_size_source", default_source)
 
 
 def wrap_texel(uv: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

@@ -101,6 +101,61 @@ def _float_slots() -> dict[str, tuple[int, int]]:
     return slots
 
 
+#: The per-material parameter block, one per (mesh, material) draw: how a surface point finds
+#: its texture coordinates (core/mapping.py computes every value; kernels/include/btf_surface.h
+#: and shaders/btf_mapping_lib.glsl read them as ``M_<NAME>``). Replaces the ad-hoc 8-float
+#: ``material_params`` and the ``uv_transform`` uniform. Values, in order:
+#: material: index of the material's packed tables; mapping: MAPPING_UV | MAPPING_BOX;
+#: texel_filter: FILTER_NEAREST | FILTER_LINEAR; exposure: the multiplier 2^stops;
+#: uv_matrix: 2×2 row-major A and uv_offset c: texture coordinates = A·s + c, where s is the
+#: mesh UV (UV mapping) or a box projection's 2D coordinates (Box mapping);
+#: box_blend: blend width of the box projection's weights (0 = one projection per point);
+#: box_from_world: 3×4 row-major affine map from world space to the box's frame (orthonormal
+#: rotation × a uniform scale, so normals map by its 3×3 part then normalise).
+MATERIAL_BLOCK: tuple[tuple[str, int], ...] = (
+    ("material", 1),
+    ("mapping", 1),
+    ("texel_filter", 1),
+    ("exposure", 1),
+    ("uv_matrix", 4),
+    ("uv_offset", 2),
+    ("box_blend", 1),
+    ("box_from_world", 12),
+)
+MATERIAL_BLOCK_FLOATS = 32  # floats reserved per block (a GLSL texture row, an OpenCL stride)
+#: Enumerations of the block (device constants: never renumber).
+MAPPING_IDS = {"UV": 0, "BOX": 1}
+FILTER_IDS = {"NEAREST": 0, "LINEAR": 1}
+
+
+def _block_slots() -> dict[str, tuple[int, int]]:
+    slots, cursor = {}, 0
+    for name, size in MATERIAL_BLOCK:
+        slots[name] = (cursor, size)
+        cursor += size
+    return slots
+
+
+BLOCK_SLOT = _block_slots()  # name → (first float, size)
+assert sum(size for _, size in MATERIAL_BLOCK) <= MATERIAL_BLOCK_FLOATS
+
+
+def material_block(**values: float | Sequence[float]) -> np.ndarray:
+    """One parameter block, (MATERIAL_BLOCK_FLOATS,) float32, from values by slot name (every
+    slot must be given: a forgotten one would silently read 0 on the device)."""
+    missing = set(BLOCK_SLOT) - set(values)
+    if missing:
+        raise KeyError(f"material block slots missing: {sorted(missing)}")
+    out = np.zeros(MATERIAL_BLOCK_FLOATS, dtype=np.float32)
+    for name, value in values.items():
+        first, size = BLOCK_SLOT[name]  # KeyError for an unknown name
+        flat = np.asarray(value, dtype=np.float32).ravel()
+        if flat.size != size:
+            raise ValueError(f"block slot {name!r} holds {size} floats, got {flat.size}")
+        out[first : first + size] = flat
+    return out
+
+
 INT_SLOT = {name: i for i, name in enumerate(INT_HEADER)}
 FLOAT_SLOT = _float_slots()  # name → (first slot, size)
 assert len(INT_HEADER) <= HEADER_INTS
@@ -160,7 +215,7 @@ class TableWriter:
                 f"{name}: index tables too large for the GLSL back end (an index or offset "
                 "reaches 2^24); use the OpenCL or numpy back end"
             )
-        return PackedTables(_layout(int_stream), _layout(float_stream))
+        return PackedTables(layout_stream(int_stream), layout_stream(float_stream))
 
 
 @dataclass(frozen=True)
@@ -195,7 +250,8 @@ def codecs() -> dict[str, PackedCodec]:
 def defines() -> dict[str, int]:
     """The layout as build-time defines for OpenCL (``-D``) and GLSL (``#define``): every
     header slot (H_*, F_*), every codec id (CODEC_*), TABLE_WIDTH, the header sizes and the
-    magic value."""
+    magic value; the material block's slots (M_*), size and enumerations (MAPPING_*,
+    FILTER_*)."""
     out = {
         "TABLE_WIDTH": TABLE_WIDTH,
         "HEADER_INTS": HEADER_INTS,
@@ -204,12 +260,20 @@ def defines() -> dict[str, int]:
     }
     out.update({f"H_{name.upper()}": i for i, name in enumerate(INT_HEADER)})
     out.update({f"F_{name.upper()}": first for name, (first, _) in FLOAT_SLOT.items()})
+    out["MATERIAL_BLOCK_FLOATS"] = MATERIAL_BLOCK_FLOATS
+    out.update({f"M_{name.upper()}": first for name, (first, _) in BLOCK_SLOT.items()})
+    out.update({f"MAPPING_{name}": i for name, i in MAPPING_IDS.items()})
+    out.update({f"FILTER_{name}": i for name, i in FILTER_IDS.items()})
     by_id = sorted(codecs().values(), key=lambda c: c.codec_id)
     out.update({f"CODEC_{c.name.upper()}": c.codec_id for c in by_id})
     return out
 
 
-def _layout(stream: np.ndarray) -> np.ndarray:
+def layout_stream(stream: np.ndarray) -> np.ndarray:
+    """A flat float stream as (rows, TABLE_WIDTH) float32, zero-padded: the texture layout of
+    the packed tables and of the material blocks (element i at column i % TABLE_WIDTH, row
+    i // TABLE_WIDTH)."""
+    stream = np.asarray(stream, dtype=np.float32).ravel()
     rows = max(1, -(-len(stream) // TABLE_WIDTH))
     out = np.zeros(rows * TABLE_WIDTH, dtype=np.float32)
     out[: len(stream)] = stream

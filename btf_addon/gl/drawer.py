@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..core.envmap import VirtualLights
-from ..core.packed import pack
+from ..core.packed import layout_stream, pack
 from ..render.progressive import ProgressiveState
 from ..scene.lights import pack_lights
 from ..scene.scene import Mesh, Scene
@@ -123,7 +123,8 @@ class ProgressiveDrawer:
                 )
             self.tables.append(self._table_uploads[key][1])
         self.batches: list[tuple[Any, int]] = []  # (vertices, material index), empty meshes out
-        for mesh in scene.meshes:
+        self.batch_blocks: list[int] = []  # per batch: its mesh's row of the material blocks
+        for mesh_index, mesh in enumerate(scene.meshes):
             key = (id(mesh.positions), np.asarray(mesh.world_from_object).tobytes())
             if key not in self._batch_uploads:
                 self._batch_uploads[key] = old_batches.get(key) or (
@@ -133,6 +134,7 @@ class ProgressiveDrawer:
             vertices = self._batch_uploads[key][1]
             if vertices is not None:
                 self.batches.append((vertices, mesh.material))
+                self.batch_blocks.append(mesh_index)
         env = scene.environment
         if previous is not None and previous.scene.environment is env:
             self.env_tex = previous.env_tex
@@ -159,6 +161,10 @@ class ProgressiveDrawer:
             self.no_lights = device.texture(np.zeros((1, 2, 4), dtype=np.float32))
         # Blender's lights: five RGBA texels each (scene/lights.py), drawn without shadows.
         self.scene_lights_tex = device.texture(pack_lights(scene.lights).reshape(1, -1, 4))
+        # Per mesh its material's parameter block (core/packed.py MATERIAL_BLOCK): mapping,
+        # texel filter, exposure (shaders/btf_mapping_lib.glsl), laid out TABLE_WIDTH floats
+        # a row as the BTF tables are, so any number of instances fits a texture's height.
+        self.blocks_tex = device.texture(layout_stream(scene.material_blocks().ravel()))
         if previous is not None:
             previous._hand_over(self)
 
@@ -179,7 +185,7 @@ class ProgressiveDrawer:
         objects = [t for _, pair in self._table_uploads.values() for t in pair]
         objects += [v for _, v in self._batch_uploads.values()]
         objects += [self.env_tex, self.quad_background, self.quad_resolve, self.no_lights]
-        return [*objects, self.scene_lights_tex]
+        return [*objects, self.scene_lights_tex, self.blocks_tex]
 
     def _hand_over(self, successor: ProgressiveDrawer) -> None:
         kept = {id(o) for o in successor._owned()}
@@ -275,14 +281,14 @@ class ProgressiveDrawer:
         lights = view.lights if view.lights is not None else self.no_lights
         device.set_state(state)
         try:
-            for vertices, material_index in self.batches:
+            batches = zip(self.batches, self.batch_blocks, strict=True)
+            for (vertices, material_index), block in batches:
                 material = self.scene.materials[material_index]
                 ints, floats = self.tables[material_index]
-                m = material.uv_transform()
                 uniforms = {
                     "clip_from_world": view.clip_from_world,
                     "camera": view.camera,
-                    "uv_transform": (m[0, 0], m[1, 0], m[0, 1], m[1, 1]),  # mat2, column-major
+                    "material_block": (block, 0.0, 0.0, 0.0),  # row in material_blocks
                     "light_range": (first, count, 2.0**material.exposure, len(self.scene.lights)),
                 }
                 samplers = {
@@ -290,6 +296,7 @@ class ProgressiveDrawer:
                     "btf_float_tables": floats,
                     "lights": lights,
                     "scene_lights": self.scene_lights_tex,
+                    "material_blocks": self.blocks_tex,
                 }
                 device.draw(self.surface, vertices, uniforms, samplers)
         finally:

@@ -162,15 +162,16 @@ SURFACE_SHADER = ShaderInterface(
         (1, "FLOAT_2D", "btf_float_tables"),
         (2, "FLOAT_2D", "lights"),
         (3, "FLOAT_2D", "scene_lights"),
+        (4, "FLOAT_2D", "material_blocks"),
     ),
     push_constants=(
         ("MAT4", "clip_from_world"),
         ("VEC4", "camera"),
-        ("VEC4", "uv_transform"),
+        ("VEC4", "material_block"),
         ("VEC4", "light_range"),
     ),
     varyings=(("VEC3", "v_world"), ("VEC3", "v_normal"), ("VEC2", "v_uv"), ("VEC4", "v_tangent")),
-    libraries=(*BTF_LIBRARIES, "scene_lights_lib.glsl"),
+    libraries=(*BTF_LIBRARIES, "btf_mapping_lib.glsl", "scene_lights_lib.glsl"),
     vertex_file="surface_vert.glsl",
     fragment_file="surface_frag.glsl",
 )

@@ -45,3 +45,25 @@ def plane(size: float = 2.0, uv_repeats: float = 1.0, **kw) -> Mesh:
     p = np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, -h, 0], [h, h, 0], [-h, h, 0]], float)
     uv = (p[:, :2] / size + 0.5) * uv_repeats
     return _mesh(p, np.tile([0.0, 0.0, 1.0], (6, 1)), uv, **kw)
+
+
+def cube(size: float = 2.0, **kw) -> Mesh:
+    """A flat-shaded cube centred on the origin, unwrapped as Blender's default cube is: each
+    face a quarter-wide square of a cross in the UV square (so one UV tile spans 4 faces)."""
+    h = size / 2
+    offsets = ((0.375, 0.0), (0.375, 0.25), (0.375, 0.5), (0.375, 0.75), (0.125, 0.5), (0.625, 0.5))
+    axes = np.eye(3)
+    faces = []  # (normal, u direction, v direction) with u × v = normal
+    for a in range(3):
+        for s in (1.0, -1.0):
+            n = s * axes[a]
+            u = axes[(a + 1) % 3] * s
+            faces.append((n, u, np.cross(n, u)))
+    p, nrm, uv = [], [], []
+    corners = ((-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1))  # two triangles
+    for (n, u, v), (ou, ov) in zip(faces, offsets, strict=True):
+        for x, y in corners:
+            p.append(h * (n + x * u + y * v))
+            nrm.append(n)
+            uv.append((ou + (x + 1) / 2 * 0.25, ov + (y + 1) / 2 * 0.25))
+    return _mesh(np.array(p), np.array(nrm), np.array(uv), **kw)

@@ -11,16 +11,23 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.envmap import Environment
+from ..core.mapping import Placement, uv_matrix, uv_units_per_uv
 from ..core.model import BTF
+from ..core.packed import MATERIAL_BLOCK_FLOATS
 from .lights import Light
 
 
 @dataclass
 class Material:
-    """A BTF with its placement on the surface.
+    """A BTF with its placement on the surface (core/mapping.py documents each choice).
 
-    uv_scale: texture repeats per UV unit; uv_rotation_rad: rotation in UV space;
-    exposure: brightness in stops (value × 2^exposure).
+    uv_scale: texture repeats per UV unit (× the real-world factor when on); uv_rotation_rad:
+    rotation in UV space; uv_offset: (2,) tiles; exposure: brightness in stops
+    (value × 2^exposure); mapping: 'UV' | 'BOX'; texel_filter: 'NEAREST' | 'LINEAR' (the
+    plain-array default is today's nearest look; Blender's property defaults to LINEAR);
+    real_world: size the tile from its physical size; tile_size_mm: (u, v) mm overriding the
+    BTF's own (None: use ``btf.meta.tile_size_mm``, which may itself be unknown);
+    box_space: 'OBJECT' | 'WORLD'; box_blend: blend width of the box projections.
     """
 
     btf: BTF
@@ -28,11 +35,43 @@ class Material:
     uv_rotation_rad: float = 0.0
     exposure: float = 0.0
     name: str = ""
+    mapping: str = "UV"
+    texel_filter: str = "NEAREST"
+    uv_offset: tuple[float, float] = (0.0, 0.0)
+    real_world: bool = False
+    tile_size_mm: tuple[float, float] | None = None
+    box_space: str = "OBJECT"
+    box_blend: float = 0.2
 
     def uv_transform(self) -> np.ndarray:
-        """(2, 2) matrix taking mesh UVs to BTF texture coordinates (rotate, then scale)."""
-        c, s = np.cos(self.uv_rotation_rad), np.sin(self.uv_rotation_rad)
-        return self.uv_scale * np.array([[c, -s], [s, c]])
+        """(2, 2) matrix taking mesh UVs to BTF texture coordinates (rotate, then scale),
+        without real-world sizing (that needs a mesh: ``block``)."""
+        return uv_matrix(self.uv_scale, self.uv_rotation_rad)
+
+    @property
+    def physical_size_mm(self) -> tuple[float, float] | None:
+        """The tile size used for real-world mapping: this material's, else the BTF's."""
+        return self.tile_size_mm if self.tile_size_mm is not None else self.btf.meta.tile_size_mm
+
+    def placement(self) -> Placement:
+        return Placement(
+            mapping=self.mapping,
+            texel_filter=self.texel_filter,
+            uv_scale=self.uv_scale,
+            uv_rotation_rad=self.uv_rotation_rad,
+            uv_offset=tuple(self.uv_offset),
+            real_world=self.real_world,
+            tile_size_mm=self.physical_size_mm,
+            box_space=self.box_space,
+            box_blend=self.box_blend,
+            exposure=self.exposure,
+        )
+
+    def block(self, index: int, mesh: Mesh, metres_per_unit: float = 1.0) -> np.ndarray:
+        """The parameter block (core/packed.py MATERIAL_BLOCK) for ``mesh`` drawn with this
+        material, which is ``index`` in the scene: (MATERIAL_BLOCK_FLOATS,) float32."""
+        units = mesh.units_per_uv() if self.mapping == "UV" and self.real_world else None
+        return self.placement().block(index, mesh.world_from_object, units, metres_per_unit)
 
 
 @dataclass
@@ -55,6 +94,18 @@ class Mesh:
     @property
     def triangle_count(self) -> int:
         return len(self.positions) // 3
+
+    def units_per_uv(self) -> float | None:
+        """UV density in world units per UV unit (object scale included), computed once per
+        mesh and world matrix (core/mapping.py ``uv_units_per_uv``); None without UV area."""
+        key = np.asarray(self.world_from_object, dtype=np.float64).tobytes()
+        cached = self.__dict__.get("_units_per_uv")
+        if cached is None or cached[0] != key:
+            m = np.asarray(self.world_from_object, dtype=np.float64)
+            p = np.asarray(self.positions, dtype=np.float64) @ m[:3, :3].T
+            cached = (key, uv_units_per_uv(p, self.uvs))
+            self.__dict__["_units_per_uv"] = cached
+        return cached[1]
 
     def world_space_corners(self) -> np.ndarray:
         """(corners, 12) float32 rows: position, normal, uv, tangent and bitangent sign, in
@@ -142,6 +193,18 @@ class Scene:
     environment: Environment
     messages: list[str] = field(default_factory=list)
     lights: list[Light] = field(default_factory=list)  # Blender lights: scene/lights.py
+    metres_per_unit: float = 1.0  # Blender's Unit Scale: what real-world sizes measure in
+
+    def material_blocks(self) -> np.ndarray:
+        """(len(meshes), MATERIAL_BLOCK_FLOATS) float32: one parameter block per mesh (its
+        material's placement on that mesh), row i for ``meshes[i]``."""
+        rows = [
+            self.materials[mesh.material].block(mesh.material, mesh, self.metres_per_unit)
+            for mesh in self.meshes
+        ]
+        if not rows:
+            return np.zeros((1, MATERIAL_BLOCK_FLOATS), dtype=np.float32)
+        return np.stack(rows)
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:

@@ -108,10 +108,7 @@ inline float3 blender_lights(const SurfacePoint *sp, Stream I, Stream F,
         continue;
       }
 #endif
-      float2 light = btf_theta_phi_deg(wi);
-      sum += btf_evaluate(I, F, sp->btf_uv, wi, sp->wo, light.x, light.y, sp->view.x,
-                          sp->view.y) *
-             e / (float)n;
+      sum += btf_mapped(I, F, sp, wi) * e / (float)n;
     }
   }
   return sum;

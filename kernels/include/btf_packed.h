@@ -277,4 +277,30 @@ inline float2 btf_theta_phi_deg(float3 d)
   return (float2)(degrees(acos(clamp(d.z, -1.0f, 1.0f))), phi < 0.0f ? phi + 360.0f : phi);
 }
 
+/* btf_evaluate with spatial filtering (btf_addon/core/mapping.py filtered_evaluate):
+ * FILTER_LINEAR decodes the 4 texels around uv at their centres and blends them bilinearly,
+ * wrapping around the tile; FILTER_NEAREST (and one-texel BTFs) decode once at uv. */
+inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi, float3 wo)
+{
+  float2 light = btf_theta_phi_deg(wi), view = btf_theta_phi_deg(wo);
+  int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
+  if (filter != FILTER_LINEAR || width * height <= 1) {
+    return btf_evaluate(I, F, uv, wi, wo, light.x, light.y, view.x, view.y);
+  }
+  float2 size = (float2)((float)width, (float)height);
+  float2 s = (uv - floor(uv)) * size - 0.5f; /* mod first: large uv keep their fraction */
+  float2 i0 = floor(s);
+  float2 f = s - i0;
+  float x0 = btf_mod(i0.x, size.x), y0 = btf_mod(i0.y, size.y);
+  float x1 = btf_mod(x0 + 1.0f, size.x), y1 = btf_mod(y0 + 1.0f, size.y);
+  float3 sum = (float3)(0.0f);
+  for (int k = 0; k < 4; k++) {
+    float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
+    float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
+    float2 centre = (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y);
+    sum += w * btf_evaluate(I, F, centre, wi, wo, light.x, light.y, view.x, view.y);
+  }
+  return sum;
+}
+
 #endif

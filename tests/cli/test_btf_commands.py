@@ -20,6 +20,14 @@ def test_info_reports_the_raw_size_and_ratio():
     assert out["quantised_ratio_reported"] == pytest.approx(1002.008)
     assert out["compression_ratio"] == pytest.approx(out["raw_bytes"] / out["bytes_on_disk"])
     assert out["bytes_on_disk"] > 400_000  # the text tables, not the 80 kB quantised binary
+    # BTFbase's tables state no physical size: unknown, said so (not a silent 10 mm)
+    assert out["tile_size_mm"] is None and out["tile_size_source"] == "unknown"
+
+
+def test_info_shows_a_stated_tile_size_and_its_origin(tmp_path):
+    run_cli("synth", "woven", "-o", tmp_path / "w.btfm")
+    out = json.loads(run_cli("info", tmp_path / "w.btfm").stdout)
+    assert out["tile_size_mm"] == [4.0, 4.0] and out["tile_size_source"] == "synthetic"
 
 
 def test_eval_matches_the_library_and_raw_units(tmp_path, rng):

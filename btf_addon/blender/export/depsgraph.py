@@ -58,7 +58,9 @@ def export_scene(
         camera = Camera(np.eye(4))
     else:
         camera = export_camera(scene, width, height)
-    return Scene(meshes, materials.materials, camera, environment.environment, messages, lights)
+    out = Scene(meshes, materials.materials, camera, environment.environment, messages, lights)
+    out.metres_per_unit = float(scene.unit_settings.scale_length)  # real-world sizes (mapping)
+    return out
 
 
 def _slots(obj) -> list:

@@ -17,6 +17,9 @@ from .surface_shaders import analytic_btf
 
 #: The material an empty slot (or an object without slots) renders with.
 DEFAULT_MATERIAL_NAME = "default"
+#: What a Box-mapped material asks of meshes instead of a UV map name: UVs optional (the UV
+#: pass still shows the active render map where there is one), no warning without one.
+BOX_MAPPED = "\x00box"
 
 
 @dataclass(frozen=True)
@@ -61,12 +64,29 @@ def export_material(material, messages: list[str]) -> ExportedMaterial:
                     uv_rotation_rad=settings.uv_rotation,
                     exposure=settings.exposure,
                     name=material.name,
+                    **placement(settings),
                 )
-                return ExportedMaterial(render, settings.uv_map)
+                uv_map = BOX_MAPPED if settings.mapping == "BOX" else settings.uv_map
+                return ExportedMaterial(render, uv_map)
             except (BTFError, OSError) as exc:
                 messages.append(f"material {material.name!r}: {exc}")
     name = material.name if material is not None else DEFAULT_MATERIAL_NAME
     return ExportedMaterial(Material(analytic_btf(material, messages), name=name), "")
+
+
+def placement(settings) -> dict:
+    """The mapping fields of ``scene.Material`` from ``material.btf`` (blender/properties.py):
+    a tile size of 0 means the one the BTF states."""
+    size = tuple(float(x) for x in settings.tile_size_mm)
+    return {
+        "mapping": settings.mapping,
+        "texel_filter": settings.texel_filter,
+        "uv_offset": tuple(float(x) for x in settings.uv_offset),
+        "real_world": bool(settings.use_real_world_size),
+        "tile_size_mm": size if min(size) > 0.0 else None,
+        "box_space": settings.box_space,
+        "box_blend": float(settings.box_blend),
+    }
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ import numpy as np
 
 from ...scene.scene import Mesh
 from ...scene.tangents import corner_tangents
+from .materials import BOX_MAPPED
 
 #: Object types (Blender's identifiers) whose evaluated data is a mesh we can draw.
 GEOMETRY_OBJECT_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "META", "FONT"})
@@ -53,6 +54,9 @@ def export_mesh(obj, slot_uv_names: list[str], messages: list[str]) -> list[Mesh
 def _corner_uvs(obj, mesh, loops, uv_name: str, messages: list[str]) -> np.ndarray:
     """(len(loops), 2) float32: the named UV map (else the active render one) at ``loops``;
     zeros, with a message, when the mesh has none."""
+    box_mapped = uv_name == BOX_MAPPED  # UVs optional: the box projection places the tile
+    if box_mapped:
+        uv_name = ""
     layer = mesh.uv_layers.get(uv_name) if uv_name else None
     if layer is None:
         layer = next((uv for uv in mesh.uv_layers if uv.active_render), None)
@@ -61,10 +65,12 @@ def _corner_uvs(obj, mesh, loops, uv_name: str, messages: list[str]) -> np.ndarr
                 f"object {obj.name!r}: UV map {uv_name!r} not found, using "
                 f"{layer.name if layer else 'none'}"
             )
+    if layer is None and box_mapped:
+        return np.zeros((len(loops), 2), dtype=np.float32)
     if layer is None:
         message = (
-            f"object {obj.name!r} has no UV map: its BTF cannot be placed; add one "
-            "(UV > Smart UV Project)"
+            f"object {obj.name!r} has no UV map: its UV-mapped BTF cannot be placed; add "
+            "one (UV > Smart UV Project) or set the material's Mapping to Box"
         )
         if message not in messages:
             messages.append(message)
