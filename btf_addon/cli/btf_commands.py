@@ -147,12 +147,14 @@ def load_queries(path: Path) -> np.ndarray:
                 raise BTFError(f"{path}: .npy format version {version} is not supported")
             shape, _fortran, dtype = reader(fh)
             data_start = fh.tell()
+    except BTFError:
+        raise
     except FileNotFoundError:
         raise BTFError(f"{path}: no such file") from None
     except IsADirectoryError:
         raise BTFError(f"{path}: is a folder, not a .npy file") from None
-    except (ValueError, OSError, EOFError, SyntaxError) as exc:
-        raise BTFError(f"{path}: not a readable .npy array ({exc})") from None
+    except Exception as exc:  # numpy's header parser raises many kinds on a damaged header
+        raise BTFError(f"{path}: not a readable .npy array ({type(exc).__name__})") from None
     if dtype.kind not in "iuf" or dtype.fields is not None:
         raise BTFError(
             f"{path}: queries must be real numbers (float or integer), got {dtype}"
@@ -168,7 +170,10 @@ def load_queries(path: Path) -> np.ndarray:
         q = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
         raise BTFError(f"{path}: not a readable .npy array ({exc})") from None
-    return q
+    # float64, as evaluate_angles reads them; a signalling NaN in a damaged file would raise
+    # the FP "invalid" flag in that cast: it is a NaN query like any other (value 0).
+    with np.errstate(invalid="ignore"):
+        return q.astype(np.float64, copy=False)
 
 
 def cmd_eval(args) -> int:

@@ -78,7 +78,8 @@ class Environment:
             raise ValueError(f"environment rotation must be finite, got {rotation_z_rad!r}")
         # One float64 copy, cleaned and scaled in place: a large map is held once, not three
         # times (memory model: core/memory.py ENV_PIXEL_BYTES); the values are the same.
-        radiance = np.array(image[..., :3], dtype=np.float64)
+        with np.errstate(invalid="ignore"):  # signalling NaNs in a file: cleaned just below
+            radiance = np.array(image[..., :3], dtype=np.float64)
         del image
         bad = ~np.isfinite(radiance)
         self.nonfinite_count = int(np.count_nonzero(np.any(bad, axis=-1)))
