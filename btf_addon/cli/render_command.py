@@ -173,7 +173,8 @@ def _check_blend(path: Path) -> None:
         raise BTFError(f"{path}: not a .blend file (it does not start as one)")
 
 
-def _check_memory(args, width: int, height: int, lights: int) -> None:
+def _check_memory(width: int, height: int, lights: int) -> None:
+    """The render's peak (core/memory.py ``render``) against what the process may use."""
     memory.require(memory.render(width, height, lights, f"a {width}x{height} render"))
 
 
@@ -227,7 +228,7 @@ def cmd_render(args) -> int:
         _check_blend(args.blend)
     _check_stereo_flags(args)
     if args.resolution is not None:  # known before Blender starts: refuse a size up front
-        _check_memory(args, *args.resolution, args.lights or 0)
+        _check_memory(*args.resolution, args.lights or 0)
     try:
         import bpy
     except ImportError:
@@ -251,7 +252,6 @@ def cmd_render(args) -> int:
         settings = prepare_scene(scene, args)
         pct = scene.render.resolution_percentage / 100
         _check_memory(
-            args,
             int(scene.render.resolution_x * pct),
             int(scene.render.resolution_y * pct),
             settings.lights_total,

@@ -190,10 +190,13 @@ def read_table(path: Path, integer: bool, cols: int | None = None) -> np.ndarray
         if values.size and (values.min() < -(2**31) or values.max() > 2**31 - 1):
             raise BTFFormatError(f"{path}: an index table holds values beyond 32-bit integers")
         return values.astype(np.int32).reshape(rows, ncols)
+    limit = float(np.finfo(np.float32).max)
+    if values.size and np.abs(values).max() > limit:
+        raise BTFFormatError(f"{path}: {_bad_token(data, limit=limit)}")
     return values.astype(np.float32).reshape(rows, ncols)
 
 
-def _bad_token(data: bytes, finite: bool = False) -> str:
+def _bad_token(data: bytes, finite: bool = False, limit: float | None = None) -> str:
     """'line N: <token> is not a number' for the first offending token (error path only)."""
     for number, line in enumerate(data.splitlines(), start=1):
         for i, token in enumerate(line.split()):
@@ -205,6 +208,8 @@ def _bad_token(data: bytes, finite: bool = False) -> str:
                 return f"line {number}: {token[:40].decode(errors='replace')!r} is not a number"
             if finite and not np.isfinite(value):
                 return f"line {number}: NaN or infinite value {token.decode(errors='replace')!r}"
+            if limit is not None and abs(value) > limit:
+                return f"line {number}: {token.decode(errors='replace')!r} is beyond float32"
     return "contains a token that is not a number"
 
 

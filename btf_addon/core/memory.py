@@ -188,9 +188,9 @@ SWATCH_BAND_PIXELS = 1 << 17
 
 def swatch(size: int, suffix: str) -> Estimate:
     """``swatch --size N``: the image is evaluated in bands (SWATCH_BAND_PIXELS at a time) into
-    one (N, N, 3) float32 array; EXR keeps that and the writer's copy, PNG an 8-bit copy, its
-    filtered rows and their compressed form."""
-    per_pixel = 24 if suffix == ".exr" else 12 + 3 * 4
+    one (N, N, 3) array: float32 for EXR (and the writer's buffers), 8-bit for PNG (its
+    filtered rows and their compressed form). Measured at 4096²: 13 B/px EXR, 7 B/px PNG."""
+    per_pixel = 24 if suffix == ".exr" else 12
     return Estimate(
         f"swatch --size {size}",
         size * size * per_pixel + EVAL_CHUNK_BYTES,
@@ -198,10 +198,12 @@ def swatch(size: int, suffix: str) -> Estimate:
     )
 
 
-#: ``Environment`` per pixel: the float32 file channels and their float32 RGB copy, the float64
-#: radiance, the per-pixel masks, luminance weights, column pdf and cdf (float64 each).
+#: ``Environment`` per pixel: the float32 file channels, the float64 radiance, the per-pixel
+#: masks, luminance weights, column pdf and cdf (float64 each). Measured: 79 B/px for a
+#: 4096 × 2048 map (was ~128 before the map was cleaned in place).
 ENV_PIXEL_BYTES = 96
-#: One virtual light while sampling and saving (Sobol points, row/column search, outputs).
+#: One virtual light while sampling and saving (Sobol points, row/column search, outputs):
+#: 10⁶ lights over a 4096-wide map stay below the map's own peak (measured).
 LIGHT_BYTES = 400
 
 

@@ -66,3 +66,12 @@ def test_material_line_values_are_checked(alu, edit, message):
     with pytest.raises(BTFFormatError, match=message) as err:
         MLVQBTF.from_directory(alu)
     assert "all_materialInfo.txt" in str(err.value)
+
+
+def test_a_value_beyond_float32_is_named_with_its_line(alu):
+    f = alu / "all_PDF3Dscale.txt"
+    lines = f.read_text().splitlines()
+    lines[5] = "1e308 " + " ".join(lines[5].split()[1:])
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(BTFFormatError, match=r"all_PDF3Dscale\.txt: line 6: '1e308' is beyond"):
+        MLVQBTF.from_directory(alu)
