@@ -84,7 +84,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--lights",
-        type=_at_least(1),
+        type=int,  # its range (1…4096) is the scene property's, checked in _check_ranges
         metavar="N",
         help="N virtual lights standing in for the World (Virtual Lights mode)",
     )

@@ -113,7 +113,6 @@ def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
         (["--samples", "-1"], "--samples: must be at least 1"),
         (["--samples", "0"], "--samples: must be at least 1"),
         (["--bounces", "-1"], "--bounces: must be at least 0"),
-        (["--lights", "0"], "--lights: must be at least 1"),
         (["--seed", "-3"], "--seed: must be at least 0"),
     ],
 )
