@@ -2,10 +2,11 @@
 then renamed over it. A failed or interrupted write never leaves a half-written file under the
 requested name, and an existing file stays intact until the new one is complete.
 
-Temporary files are named ``.<stem>.pid<PID>.<random>.tmp<suffix>``: the writer's process id is
-in the name, so a later write to the same target removes the leftovers of writers that were
-killed (SIGKILL, power loss) and whose process is gone. The output gets the permissions any
-other new file would (``0666 & ~umask``), not mkstemp's private 0600.
+Temporary files are named ``.<stem>.pid<PID>-<host>.<random>.tmp<suffix>``: the writer's process
+id and machine are in the name, so a later write to the same target on the same machine removes
+the leftovers of writers that were killed (SIGKILL, power loss) and whose process is gone.
+The output gets the permissions any other new file would (``0666 & ~umask``), not mkstemp's
+private 0600.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import socket
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -34,9 +36,15 @@ def atomic_write_path(path: str | Path, write: Callable[[Path], None]) -> Path:
     return _atomic(Path(path), lambda tmp, fh: write(tmp))
 
 
+def _host() -> str:
+    """This machine's name as it may appear in a file name: a shared folder (NFS) seen from
+    several machines must not have one machine judge another's process ids."""
+    return re.sub(r"[^A-Za-z0-9-]", "", socket.gethostname())[:32] or "host"
+
+
 def temp_prefix(path: Path) -> str:
     """The start of every temporary file name this process uses for ``path``."""
-    return f".{path.stem}.pid{os.getpid()}."
+    return f".{path.stem}.pid{os.getpid()}-{_host()}."
 
 
 def current_umask() -> int:
@@ -69,10 +77,16 @@ def _pid_alive(pid: int) -> bool:
 def remove_stale_temporaries(path: Path) -> list[Path]:
     """Delete temporaries for ``path`` left by writers whose process no longer exists.
 
-    Only names of our own pattern (``.<stem>.pid<N>.*.tmp<suffix>``) are considered; a file of a
-    live process (a concurrent writer) is left alone. Returns the files removed."""
+    Only names of our own pattern written on this machine (``.<stem>.pid<N>-<host>.*.tmp<suffix>``)
+    are considered; a file of a live process (a concurrent writer) is left alone. Returns the
+    files removed."""
     pattern = re.compile(
-        re.escape(f".{path.stem}.pid") + r"(\d+)\.[^/]*\.tmp" + re.escape(path.suffix) + "$"
+        re.escape(f".{path.stem}.pid")
+        + r"(\d+)-"
+        + re.escape(_host())
+        + r"\.[^/]*\.tmp"
+        + re.escape(path.suffix)
+        + "$"
     )
     removed = []
     try:

@@ -101,7 +101,7 @@ def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
     assert proc.stdout.readline().strip() == "writing"
     proc.send_signal(signal.SIGKILL)  # nothing can clean up after this
     proc.wait(timeout=30)
-    left = [p for p in tmp_path.iterdir() if p.name.startswith(f".m.pid{proc.pid}.")]
+    left = [p for p in tmp_path.iterdir() if p.name.startswith(f".m.pid{proc.pid}-")]
     assert len(left) == 1
     run_cli("synth", "lambertian", "-o", out)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.btfm"]

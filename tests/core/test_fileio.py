@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from btf_addon.core import fileio
 from btf_addon.core.fileio import atomic_write, atomic_write_path
 
 
@@ -59,14 +60,16 @@ def test_temporaries_carry_the_pid_and_stale_ones_are_removed_on_the_next_write(
     target = tmp_path / "d.npy"
     seen = []
     atomic_write_path(target, lambda p: (seen.append(p.name), p.write_bytes(b"x")))
-    assert seen[0].startswith(f".d.pid{os.getpid()}.") and seen[0].endswith(".tmp.npy")
-    stale = tmp_path / f".d.pid{_dead_pid()}.abc.tmp.npy"  # a killed writer's leftover
-    live = tmp_path / f".d.pid{os.getppid()}.abc.tmp.npy"  # a concurrent writer: kept
-    other = tmp_path / f".e.pid{_dead_pid()}.abc.tmp.npy"  # another target's: not ours to judge
-    for p in (stale, live, other):
+    host = fileio._host()
+    assert seen[0].startswith(f".d.pid{os.getpid()}-{host}.") and seen[0].endswith(".tmp.npy")
+    stale = tmp_path / f".d.pid{_dead_pid()}-{host}.abc.tmp.npy"  # a killed writer's leftover
+    live = tmp_path / f".d.pid{os.getppid()}-{host}.abc.tmp.npy"  # a concurrent writer: kept
+    other = tmp_path / f".e.pid{_dead_pid()}-{host}.abc.tmp.npy"  # another target's: not judged
+    remote = tmp_path / f".d.pid{_dead_pid()}-elsewhere.abc.tmp.npy"  # another machine's pids
+    for p in (stale, live, other, remote):
         p.write_bytes(b"partial")
     atomic_write(target, lambda fh: fh.write(b"y"))
-    assert not stale.exists() and live.exists() and other.exists()
+    assert not stale.exists() and live.exists() and other.exists() and remote.exists()
     assert target.read_bytes() == b"y"
 
 
