@@ -27,8 +27,27 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread like Ctrl-C so every ``finally`` and cleanup runs."""
 
 
+#: Signals received during this command, in order: code that runs callbacks which swallow
+#: exceptions (Blender's render engine reports one and carries on saving) checks it after.
+signals_received: list[int] = []
+
+
 def _on_sigterm(signum, _frame) -> None:
+    signals_received.append(signum)
     raise Terminated(f"signal {signum}")
+
+
+def _on_sigint(signum, frame) -> None:
+    signals_received.append(signum)
+    signal.default_int_handler(signum, frame)
+
+
+def raise_if_interrupted() -> None:
+    """Re-raise a Ctrl-C or SIGTERM that a callback swallowed (see ``signals_received``)."""
+    if signal.SIGTERM in signals_received:
+        raise Terminated(f"signal {signal.SIGTERM}")
+    if signal.SIGINT in signals_received:
+        raise KeyboardInterrupt
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -117,13 +136,19 @@ def _os_error_text(exc: OSError) -> str:
 
 
 def _install_sigterm():
-    """SIGTERM → ``Terminated`` in the main thread (elsewhere signals cannot be handled)."""
+    """SIGTERM → ``Terminated``, SIGINT → KeyboardInterrupt, both recorded, in the main thread
+    (elsewhere signals cannot be handled)."""
+    signals_received.clear()
     try:
-        return signal.signal(signal.SIGTERM, _on_sigterm)
+        return (
+            signal.signal(signal.SIGTERM, _on_sigterm),
+            signal.signal(signal.SIGINT, _on_sigint),
+        )
     except ValueError:  # not the main thread (an embedding host)
         return None
 
 
 def _restore_sigterm(previous) -> None:
     if previous is not None:
-        signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGTERM, previous[0])
+        signal.signal(signal.SIGINT, previous[1])

@@ -173,6 +173,17 @@ def _check_blend(path: Path) -> None:
         raise BTFError(f"{path}: not a .blend file (it does not start as one)")
 
 
+def _after_interrupt(output: Path, before: int | None) -> None:
+    """Ctrl-C or SIGTERM during F12 raises inside the engine's render callback, which Blender
+    reports and then saves what was drawn: remove that image and end as interrupted."""
+    from .main import raise_if_interrupted, signals_received
+
+    if signals_received:
+        if output.is_file() and output.stat().st_mtime_ns != before:
+            output.unlink()
+        raise_if_interrupted()
+
+
 def _check_memory(width: int, height: int, lights: int) -> None:
     """The render's peak (core/memory.py ``render``) against what the process may use."""
     memory.require(memory.render(width, height, lights, f"a {width}x{height} render"))
@@ -264,6 +275,8 @@ def cmd_render(args) -> int:
                 bpy.ops.render.render(write_still=True)
             except RuntimeError as exc:  # the engine's ERROR reports, e.g. a compile error
                 raise BTFError(_report_text(str(exc))) from None
+            finally:
+                _after_interrupt(output, before)
             seconds = time.perf_counter() - t0
         pct = scene.render.resolution_percentage / 100
         w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)

@@ -89,6 +89,40 @@ def test_a_signal_mid_write_exits_130_and_removes_the_temporary(tmp_path, sig, w
     assert list(out.parent.iterdir()) == []  # no output, no temporary
 
 
+#: F12 whose render callback blocks (after saying so): a signal then arrives inside Blender's
+#: engine callback, where Blender catches the exception, reports it and saves the image.
+SLOW_F12 = """
+import sys, time
+from btf_addon.blender import final_render
+def slow(engine, depsgraph):
+    print("rendering", flush=True)
+    time.sleep(120)
+final_render.render = slow
+from btf_addon.cli.main import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_during_f12_exits_130_without_an_image(tmp_path):
+    out = tmp_path / "r.png"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", SLOW_F12, "render", "--demo", "-o", str(out),
+         "--resolution", "32x24"],
+        cwd=ROOT, env=cli_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        while (line := proc.stdout.readline()) and line.strip() != "rendering":
+            pass
+        assert line.strip() == "rendering"
+        proc.send_signal(signal.SIGTERM)
+        _stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr
+    assert "terminated" in stderr.strip().splitlines()[-1]
+    assert not out.exists()
+
+
 def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
     out = tmp_path / "m.btfm"
     proc = subprocess.Popen(
