@@ -125,13 +125,16 @@ def _save_npy_atomic(path: Path, array: np.ndarray) -> None:
     atomic_write(path, lambda fh: np.save(fh, array))
 
 
-def load_queries(path: Path) -> np.ndarray:
+def load_queries(path: Path, also: memory.Estimate | None = None) -> np.ndarray:
     """A (N, 6) real-valued .npy array, checked from its header before it is read: the
     format, dtype (integers or floats; not complex, bool, object or records), shape, that the
     file holds all N rows, and that N rows fit in memory (core/memory.py)."""
     try:
         with open(path, "rb") as fh:
-            if fh.read(6) != b"\x93NUMPY":
+            magic = fh.read(6)
+            if not magic:
+                raise BTFError(f"{path}: the file is empty; queries are a (N, 6) .npy array")
+            if magic != b"\x93NUMPY":
                 fh.seek(0)
                 kind = "a .npz archive" if fh.read(2) == b"PK" else "not a .npy file"
                 raise BTFError(
@@ -165,7 +168,8 @@ def load_queries(path: Path) -> np.ndarray:
     expected = shape[0] * 6 * dtype.itemsize
     if path.stat().st_size - data_start < expected:
         raise BTFError(f"{path}: truncated (the header declares {shape[0]} rows)")
-    memory.require(memory.queries(shape[0], f"eval of {shape[0]} queries"))
+    estimate = memory.queries(shape[0], f"eval of {shape[0]} queries")
+    memory.require(estimate if also is None else estimate + also)  # also: the BTF's load
     try:
         q = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
@@ -177,8 +181,8 @@ def load_queries(path: Path) -> np.ndarray:
 
 
 def cmd_eval(args) -> int:
-    queries = load_queries(args.queries)  # the cheap checks first: header, shape, memory
-    memory.require(memory.btf_load(args.path))
+    # The cheap checks first (header, shape), then memory for the queries and the BTF together.
+    queries = load_queries(args.queries, also=memory.btf_load(args.path))
     btf = load_btf(args.path)
     if args.backend == "opencl":
         from ..cl.context import OpenCLUnavailableError, create_context

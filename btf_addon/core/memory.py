@@ -164,8 +164,8 @@ def btf_load(path: str | Path) -> Estimate:
     ~12 bytes per byte of the largest file, plus every table as arrays); a .btfm container is
     read whole and viewed (its size, plus one copy a codec may make)."""
     path = Path(path)
-    if path.is_dir():
-        sizes = [p.stat().st_size for p in path.iterdir() if p.is_file()]
+    if path.is_dir():  # the text tables only: a folder may hold images, reports, archives
+        sizes = [p.stat().st_size for p in path.glob("*.txt") if p.is_file()]
         peak = 12 * max(sizes, default=0) + 2 * sum(sizes)
     elif path.is_file():
         peak = 2 * path.stat().st_size
