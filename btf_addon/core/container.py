@@ -154,6 +154,14 @@ PARAM_RULES: dict[str, dict[str, tuple[type, float | None]]] = {
         "n_lights": (int, 0),
         "name": (str, None),
     },
+    # Scalars of the analytic codecs (their colours are lists the codec itself checks).
+    "ggx": {"roughness": (float, 0.0)},
+    "principled": {
+        "roughness": (float, 0.0),
+        "metallic": (float, 0.0),
+        "diffuse_roughness": (float, 0.0),
+        "specular_f0": (float, 0.0),
+    },
 }
 
 

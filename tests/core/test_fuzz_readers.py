@@ -27,10 +27,12 @@ from helpers import shared_material
 
 from btf_addon.cli.main import main
 from btf_addon.core import container, memory
-from btf_addon.core.analytic import LambertianBTF
+from btf_addon.core.analytic import LambertianBTF, PrincipledBTF
 from btf_addon.core.dense import tabulate
 from btf_addon.core.grid import uniform_ring_grid
 from btf_addon.core.imageio import write_exr
+from btf_addon.core.microgeometry import leather
+from btf_addon.core.mlvq import MLVQBTF
 
 #: Seconds one case may take before it counts as a hang (the slowest valid read here, the
 #: BTFbase text of alu under tracemalloc, takes about 1 s).
@@ -113,9 +115,19 @@ def btfbase_mutate(path: Path, rng: np.random.Generator) -> None:
 
 
 # --- .btfm container ---------------------------------------------------------------------
-def btfm_seed(folder: Path) -> Path:
-    btf = tabulate(LambertianBTF((0.8, 0.5, 0.2)), uniform_ring_grid(30.0), uniform_ring_grid(30.0))
-    return container.write_container(folder / "d.btfm", btf)
+#: One container per codec family: each codec's ``from_params`` sees the damaged header.
+BTFM_SEEDS: dict[str, Callable[[], object]] = {
+    "dense": lambda: tabulate(
+        LambertianBTF((0.8, 0.5, 0.2)), uniform_ring_grid(30.0), uniform_ring_grid(30.0)
+    ),
+    "mlvq": lambda: MLVQBTF.from_directory(shared_material("alu")),
+    "microgeometry": lambda: leather(texels=4, fine_per_texel=4),
+    "principled": lambda: PrincipledBTF(),
+}
+
+
+def btfm_seed(codec: str) -> Callable[[Path], Path]:
+    return lambda folder: container.write_container(folder / "m.btfm", BTFM_SEEDS[codec]())
 
 
 def _rewrite_header(path: Path, edit: Callable[[dict], object]) -> None:
@@ -212,13 +224,16 @@ READERS: list[Reader] = [
         lambda p: memory.btf_load(p).peak_bytes,
         count=24,
     ),
-    Reader(
-        "btfm",
-        btfm_seed,
-        btfm_mutate,
-        lambda p, out: ["convert", str(p), str(out / "copy.btfm")],
-        lambda p: memory.btf_load(p).peak_bytes * 2,  # read, then written (one table copy)
-        count=80,
+    *(
+        Reader(
+            f"btfm-{codec}",
+            btfm_seed(codec),
+            btfm_mutate,
+            lambda p, out: ["convert", str(p), str(out / "copy.btfm")],
+            lambda p: memory.btf_load(p).peak_bytes * 2,  # read, then written (a table copy)
+            count=25,
+        )
+        for codec in BTFM_SEEDS
     ),
     Reader(
         "exr-environment",
