@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ROOT, cli_env, run_cli
+from helpers import ROOT, cli_env, make_blend, run_cli
 
 from btf_addon.cli import btf_commands
 from btf_addon.cli.main import main
@@ -248,3 +248,22 @@ def test_tabulating_says_what_it_will_write(tmp_path):
     proc = run_cli("synth", "lambertian", "--tabulate", "30", "-o", tmp_path / "t.btfm")
     assert "tabulating" in proc.stderr and "lights" in proc.stderr
     assert time.perf_counter() - t0 < 60
+
+
+def test_a_blend_saved_at_a_size_that_cannot_fit_is_refused_before_rendering(tmp_path):
+    """The size is the file's own (no --resolution): refused once the file is open, before
+    F12 starts; 16384² needs about 41 GB by the model, over the 4G stated here."""
+    blend = tmp_path / "huge.blend"
+    make_blend(
+        blend,
+        "bpy.ops.object.camera_add()\n"
+        "scene.camera = bpy.context.object\n"
+        "scene.render.resolution_x = scene.render.resolution_y = 16384\n"
+        "scene.render.resolution_percentage = 100\n",
+    )
+    proc = run_cli(
+        "--max-memory", "4G", "render", "--blend", blend, "-o", tmp_path / "r.png", check=False
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert "a 16384x16384 render needs about" in proc.stderr.strip().splitlines()[-1]
+    assert not (tmp_path / "r.png").exists()
