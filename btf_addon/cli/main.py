@@ -76,7 +76,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    verbose = "-v" in (argv if argv is not None else sys.argv[1:])
+    given = argv if argv is not None else sys.argv[1:]
+    verbose = "-v" in given or "--verbose" in given
     previous = _install_sigterm()
     try:
         return _run(argv)
