@@ -35,8 +35,25 @@ def _modules():
 
 
 def register() -> None:
+    _use_extension_kernel_cache()
     for module in _modules():
         module.register()
+
+
+def _use_extension_kernel_cache() -> None:
+    """Compiled OpenCL kernels in the extension's user directory (removed with the extension)
+    instead of ~/.cache. Blender before 4.2, or the add-on run from a checkout (not an
+    installed extension), has no such directory: the default cache stays."""
+    import bpy
+
+    from ..cl import programs
+    from .addon import ADDON_PACKAGE
+
+    try:
+        folder = bpy.utils.extension_path_user(ADDON_PACKAGE, path="kernel_cache", create=True)
+    except (AttributeError, ValueError, KeyError, OSError):
+        return
+    programs.set_cache_dir(folder)
 
 
 def unregister() -> None:

@@ -26,6 +26,9 @@ class DeviceInfo:
 def list_devices() -> list[DeviceInfo]:
     """All OpenCL devices of all platforms. Raises OpenCLUnavailableError (a RuntimeError) with a
     readable reason when pyopencl is missing or no platform (ICD) is installed."""
+    from . import programs
+
+    programs.prepare_driver_caches()  # an unwritable cache must not look like "no device"
     try:
         import pyopencl as cl
     except ImportError as exc:
@@ -33,7 +36,9 @@ def list_devices() -> list[DeviceInfo]:
     try:
         platforms = cl.get_platforms()
     except cl.Error as exc:
-        raise OpenCLUnavailableError(f"no OpenCL platform found ({exc})") from None
+        raise OpenCLUnavailableError(
+            f"no OpenCL platform found ({exc}){programs.cache_diagnosis()}"
+        ) from None
     devices = []
     for platform in platforms:
         try:

@@ -7,7 +7,9 @@ expanded). The second build of the same key in a process is free; in a new proce
 binary is loaded from the disk cache, so a render does not wait for the compiler again.
 A kernel that does not compile raises ``OpenCLCompileError`` (never "no device"); its build log
 names kernels/<file> and line through the ``#line`` directives ``expand_includes`` writes.
-Set BTF_CL_BUILD_LOG=1 to print compiler logs; BTF_CL_CACHE to move the disk cache.
+Set BTF_CL_BUILD_LOG=1 to print compiler logs; BTF_CL_CACHE (or ``set_cache_dir``) to move the
+disk cache. A cache folder that cannot be written falls back to a temporary one (and says so):
+a cache is never a reason to fail.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import tempfile
 from pathlib import Path
 
 from ..core import packed
@@ -40,11 +43,94 @@ class OpenCLCompileError(RuntimeError):
 stats = {"compiled": 0, "disk_hits": 0, "memory_hits": 0}
 
 
-def cache_dir() -> Path:
+#: Set by ``set_cache_dir`` (Blender: the extension's user directory); None: the default.
+_cache_dir_setting: Path | None = None
+#: Folder asked for → folder used (itself, or a temporary one when it cannot be written).
+_resolved: dict[Path, Path] = {}
+#: Folders found unwritable, with the reason: what the OpenCL diagnosis names.
+unwritable_folders: dict[str, str] = {}
+
+
+def set_cache_dir(path: str | Path | None) -> None:
+    """Keep compiled kernels in ``path`` (None: back to the default, ``BTF_CL_CACHE`` or
+    ``$XDG_CACHE_HOME/btf_materials/opencl``). Blender's register points it into the
+    extension's user directory, so the cache goes when the extension is removed."""
+    global _cache_dir_setting
+    _cache_dir_setting = Path(path) if path is not None else None
+
+
+def configured_cache_dir() -> Path:
+    """The folder asked for, before any fallback."""
+    if _cache_dir_setting is not None:
+        return _cache_dir_setting
     if env := os.environ.get("BTF_CL_CACHE"):
         return Path(env)
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "btf_materials" / "opencl"
+
+
+def cache_dir() -> Path:
+    """The kernel cache folder in use: the configured one where it can be written, else a
+    private folder under the system's temporary directory (logged once, naming the folder
+    that could not be written, and listed in ``unwritable_folders``)."""
+    wanted = configured_cache_dir()
+    if wanted not in _resolved:
+        _resolved[wanted] = _usable(wanted, "opencl")
+    return _resolved[wanted]
+
+
+def _write_problem(folder: Path) -> str | None:
+    """Why ``folder`` cannot hold cache files (None: it can). Tried for real, by creating it
+    and a file in it: permission bits say nothing for root, read-only mounts or a file in
+    the way."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(prefix=".write-test.", dir=folder)
+        os.close(fd)
+        os.unlink(name)
+        return None
+    except OSError as exc:
+        return exc.strerror or str(exc)
+
+
+def _usable(wanted: Path, kind: str) -> Path:
+    problem = _write_problem(wanted)
+    if problem is None:
+        return wanted
+    uid = os.getuid() if hasattr(os, "getuid") else os.getpid()
+    fallback = Path(tempfile.gettempdir()) / f"btf_materials-{uid}" / kind
+    unwritable_folders[str(wanted)] = problem
+    log.warning(
+        "the %s cache folder %s cannot be written (%s); using %s instead",
+        kind,
+        wanted,
+        problem,
+        fallback,
+    )
+    return fallback
+
+
+def prepare_driver_caches() -> None:
+    """Before the OpenCL platforms load: PoCL keeps its own kernel cache (``POCL_CACHE_DIR``,
+    default ``$XDG_CACHE_HOME/pocl``) and reports *no device* when it cannot create it;
+    pyopencl and pytools cache under ``$XDG_CACHE_HOME`` and raise. Where those folders cannot
+    be written (sandboxes, farms, a read-only HOME) they are pointed at temporary ones, and the
+    folder that failed is logged and kept in ``unwritable_folders`` for the diagnosis."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    pocl = Path(os.environ.get("POCL_CACHE_DIR") or base / "pocl")
+    used = _usable(pocl, "pocl")
+    if used != pocl:
+        os.environ["POCL_CACHE_DIR"] = str(used)
+    if _write_problem(base) is not None:
+        os.environ["XDG_CACHE_HOME"] = str(_usable(base, "xdg-cache"))
+
+
+def cache_diagnosis() -> str:
+    """'; cache folders that could not be written: …' for error messages ('' when none)."""
+    if not unwritable_folders:
+        return ""
+    listed = ", ".join(f"{k} ({v})" for k, v in unwritable_folders.items())
+    return f"; cache folders that could not be written (temporary ones used instead): {listed}"
 
 
 def source_name(path: Path) -> str:
@@ -137,7 +223,10 @@ def build_program(context, device, name: str, defines: dict[str, int | float]):
         source = expand_includes(KERNELS_DIR / name)
         unbuilt = cl.Program(context, source)
         try:
-            program = unbuilt.build(options, devices=[device])
+            # pyopencl's own source cache beside ours (it would otherwise use ~/.cache).
+            program = unbuilt.build(
+                options, devices=[device], cache_dir=str(cache_dir() / "pyopencl")
+            )
         except cl.RuntimeError as exc:
             try:
                 build_log = unbuilt.get_build_info(device, cl.program_build_info.LOG)

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
 
+from ..core import memory
 from ..core.codecs import bytes_on_disk, load_btf
 from ..core.container import SUFFIX, write_container
 from ..core.dense import tabulate
@@ -89,6 +91,7 @@ def _container_format(path: Path) -> str:
 
 def cmd_info(args) -> int:
     path = Path(args.path)
+    memory.require(memory.btf_load(path))
     btf = load_btf(path)
     meta = btf.meta
     on_disk = bytes_on_disk(path, btf)
@@ -124,21 +127,65 @@ def _save_npy_atomic(path: Path, array: np.ndarray) -> None:
     atomic_write(path, lambda fh: np.save(fh, array))
 
 
-def load_queries(path: Path) -> np.ndarray:
+def load_queries(path: Path, also: memory.Estimate | None = None) -> np.ndarray:
+    """A (N, 6) real-valued .npy array, checked from its header before it is read: the
+    format, dtype (integers or floats; not complex, bool, object or records), shape, that the
+    file holds all N rows, and that N rows fit in memory (core/memory.py)."""
     try:
-        q = np.load(path, allow_pickle=False)
+        with open(path, "rb") as fh:
+            magic = fh.read(6)
+            if not magic:
+                raise BTFError(f"{path}: the file is empty; queries are a (N, 6) .npy array")
+            if magic != b"\x93NUMPY":
+                fh.seek(0)
+                kind = "a .npz archive" if fh.read(2) == b"PK" else "not a .npy file"
+                raise BTFError(
+                    f"{path}: {kind}; queries must be one array saved with numpy.save (.npy)"
+                )
+            fh.seek(0)
+            version = np.lib.format.read_magic(fh)
+            reader = {
+                (1, 0): np.lib.format.read_array_header_1_0,
+                (2, 0): np.lib.format.read_array_header_2_0,
+            }.get(version)
+            if reader is None:
+                raise BTFError(f"{path}: .npy format version {version} is not supported")
+            shape, _fortran, dtype = reader(fh)
+            data_start = fh.tell()
+    except BTFError:
+        raise
     except FileNotFoundError:
         raise BTFError(f"{path}: no such file") from None
-    except (ValueError, OSError) as exc:
+    except IsADirectoryError:
+        raise BTFError(f"{path}: is a folder, not a .npy file") from None
+    except Exception as exc:  # numpy's header parser raises many kinds on a damaged header
+        raise BTFError(f"{path}: not a readable .npy array ({type(exc).__name__})") from None
+    if dtype.kind not in "iuf" or dtype.fields is not None:
+        raise BTFError(
+            f"{path}: queries must be real numbers (float or integer), got {dtype}"
+            + (" (complex values have no angle meaning)" if dtype.kind == "c" else "")
+        )
+    if len(shape) != 2 or shape[1] != 6:
+        raise BTFError(f"{path}: queries must be a numeric (N, 6) array, got {dtype} {shape}")
+    expected = shape[0] * 6 * dtype.itemsize
+    if path.stat().st_size - data_start < expected:
+        raise BTFError(f"{path}: truncated (the header declares {shape[0]} rows)")
+    estimate = memory.queries(shape[0], f"eval of {shape[0]} queries")
+    memory.require(estimate if also is None else estimate + also)  # also: the BTF's load
+    try:
+        q = np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
         raise BTFError(f"{path}: not a readable .npy array ({exc})") from None
-    if q.ndim != 2 or q.shape[1] != 6 or not np.issubdtype(q.dtype, np.number):
-        raise BTFError(f"{path}: queries must be a numeric (N, 6) array, got {q.dtype} {q.shape}")
-    return q
+    # float64, as evaluate_angles reads them; a signalling NaN in a damaged file would raise
+    # the FP "invalid" flag in that cast: it is a NaN query like any other (value 0).
+    with np.errstate(invalid="ignore"):
+        return q.astype(np.float64, copy=False)
 
 
 def cmd_eval(args) -> int:
+    # The cheap checks first (header, shape), then memory for the queries and the BTF together.
+    queries = load_queries(args.queries, also=memory.btf_load(args.path))
     btf = load_btf(args.path)
-    queries = load_queries(args.queries)
     if args.backend == "opencl":
         from ..cl.context import OpenCLUnavailableError, create_context
         from ..cl.evaluate import device_btf
@@ -159,22 +206,40 @@ def cmd_eval(args) -> int:
     return 0
 
 
-def swatch_image(btf, light: tuple[float, float], view: tuple[float, float], size: int):
-    """(size, size, 3) values over one tile; row 0 is the top (v = 1), as images are stored."""
+def swatch_image(
+    btf, light: tuple[float, float], view: tuple[float, float], size: int, encode=None
+):
+    """(size, size, 3) values over one tile; row 0 is the top (v = 1), as images are stored:
+    float32, or what ``encode`` (a band's values → uint8) makes of them. Evaluated in bands of
+    rows (memory.SWATCH_BAND_PIXELS pixels at a time): the peak is the stored image plus one
+    band's queries (core/memory.py ``swatch``); every pixel's value is the one a single call
+    over the whole tile gives (evaluation is per row)."""
     c = (np.arange(size) + 0.5) / size
-    u, v = np.meshgrid(c, 1.0 - c)
-    n = size * size
-    q = np.column_stack(
-        [
-            u.ravel(),
-            v.ravel(),
-            np.full(n, light[0]),
-            np.full(n, light[1]),
-            np.full(n, view[0]),
-            np.full(n, view[1]),
-        ]
-    )
-    return btf.evaluate_angles(q).reshape(size, size, 3)
+    image = np.empty((size, size, 3), dtype=np.float32 if encode is None else np.uint8)
+    band = max(1, memory.SWATCH_BAND_PIXELS // size)
+    for top in range(0, size, band):
+        rows = min(band, size - top)
+        u, v = np.meshgrid(c, 1.0 - c[top : top + rows])
+        n = rows * size
+        q = np.column_stack(
+            [
+                u.ravel(),
+                v.ravel(),
+                np.full(n, light[0]),
+                np.full(n, light[1]),
+                np.full(n, view[0]),
+                np.full(n, view[1]),
+            ]
+        )
+        values = btf.evaluate_angles(q).reshape(rows, size, 3)
+        image[top : top + rows] = values if encode is None else encode(values)
+    return image
+
+
+def _angle_pair(values, flag: str) -> tuple[float, float]:
+    if not all(np.isfinite(values)):
+        raise BTFError(f"{flag} must be two finite angles in degrees, got {values}")
+    return float(values[0]), float(values[1])
 
 
 def cmd_swatch(args) -> int:
@@ -183,12 +248,15 @@ def cmd_swatch(args) -> int:
     suffix = args.output.suffix.lower()
     if suffix not in (".exr", ".png"):
         raise BTFError(f"{args.output}: output must end in .exr or .png")
-    image = swatch_image(load_btf(args.path), tuple(args.light), tuple(args.view), args.size)
+    light, view = _angle_pair(args.light, "--light"), _angle_pair(args.view, "--view")
+    memory.require(memory.swatch(args.size, suffix) + memory.btf_load(args.path))
+    btf = load_btf(args.path)
     if suffix == ".exr":
-        write_exr(args.output, image)
+        write_exr(args.output, swatch_image(btf, light, view, args.size))
     else:
         # PNG shows reflectance factor (value × π): a white Lambertian lit head-on is 1.0.
-        write_png(args.output, srgb8_from_linear(image * np.pi))
+        encode = lambda values: srgb8_from_linear(values * np.pi)  # noqa: E731
+        write_png(args.output, swatch_image(btf, light, view, args.size, encode))
     return 0
 
 
@@ -214,30 +282,69 @@ def parse_preset_params(preset: str, tokens: list[str]) -> dict:
             parts = [float(x) for x in value.split(",")]
         except ValueError:
             raise BTFError(f"--{name}: {value!r} is not a number or comma-separated list") from None
+        if not all(np.isfinite(parts)):
+            raise BTFError(f"--{name} must be finite, got {value!r}")
         if isinstance(default, int) and not isinstance(default, bool):
             if len(parts) != 1 or parts[0] != int(parts[0]):
                 raise BTFError(f"--{name} must be an integer, got {value!r}")
+            # Counts (texels, threads, samples per texel) need one; a seed may be 0.
+            low = 0 if name == "seed" else 1
+            if parts[0] < low:
+                raise BTFError(f"--{name} must be at least {low}, got {value!r}")
             params[name] = int(parts[0])
         else:
             params[name] = parts[0] if len(parts) == 1 else tuple(parts)
     return params
 
 
-def cmd_synth(args) -> int:
+#: Finest --tabulate ring step in degrees: below it the grid has > 10⁵ directions per side
+#: (a table of 10¹⁰ entries per texel), which no machine holds.
+MIN_TABULATE_STEP_DEG = 0.5
+
+
+def _tabulate_grid(text: str):
+    if text == "ubo":
+        return UBO2003
     try:
-        btf = make_preset(args.preset, **parse_preset_params(args.preset, args.extra))
+        step = float(text)
+    except ValueError:
+        raise BTFError(f"--tabulate: 'ubo' or a step in degrees, got {text!r}") from None
+    if not (np.isfinite(step) and MIN_TABULATE_STEP_DEG <= step <= 90.0):
+        raise BTFError(
+            f"--tabulate: a ring step between {MIN_TABULATE_STEP_DEG} and 90 degrees, got {text!r}"
+        )
+    return uniform_ring_grid(step)
+
+
+def _preset_estimate(preset: str, params: dict) -> memory.Estimate | None:
+    """Microgeometry presets hold (texels × fine_per_texel)² samples in float64 maps."""
+    defaults = preset_parameters(preset)
+    if "texels" not in defaults or "fine_per_texel" not in defaults:
+        return None
+    texels = params.get("texels", defaults["texels"])
+    fine = texels * params.get("fine_per_texel", defaults["fine_per_texel"])
+    return memory.microgeometry(fine, f"synth {preset} with {texels} texels ({fine}² samples)")
+
+
+def cmd_synth(args) -> int:
+    params = parse_preset_params(args.preset, args.extra)
+    grid = _tabulate_grid(args.tabulate) if args.tabulate else None
+    estimate = _preset_estimate(args.preset, params)
+    if estimate is not None:
+        memory.require(estimate)
+    try:
+        btf = make_preset(args.preset, **params)
     except ValueError as exc:
         raise BTFError(str(exc)) from None
-    if args.tabulate:
-        if args.tabulate == "ubo":
-            grid = UBO2003
-        else:
-            try:
-                grid = uniform_ring_grid(float(args.tabulate))
-            except ValueError:
-                raise BTFError(
-                    f"--tabulate: 'ubo' or a step in degrees, got {args.tabulate!r}"
-                ) from None
+    if grid is not None:
+        w, h = btf.meta.width, btf.meta.height
+        table = memory.dense_table(grid.size, grid.size, w, h, f"synth --tabulate {args.tabulate}")
+        memory.require(table)
+        print(
+            f"tabulating {grid.size} views × {grid.size} lights × {w}×{h} texels "
+            f"({memory.format_size(grid.size * grid.size * w * h * 12)} of values)",
+            file=sys.stderr,
+        )
         btf = tabulate(btf, grid, grid)
     write_container(_with_suffix(args.output), btf)
     return 0
@@ -248,5 +355,6 @@ def _with_suffix(path: Path) -> Path:
 
 
 def cmd_convert(args) -> int:
+    memory.require(memory.btf_load(args.src))
     write_container(_with_suffix(args.dst), load_btf(args.src))
     return 0

@@ -6,10 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import memory
 from ..core.envmap import Environment
 from ..core.errors import BTFError
 from ..core.fileio import atomic_write
-from ..core.imageio import read_exr
+from ..core.imageio import exr_size, read_exr
 
 
 def add_parser(sub) -> None:
@@ -31,6 +32,16 @@ def add_parser(sub) -> None:
 def cmd_envmap(args) -> int:
     if args.lights < 1:
         raise BTFError(f"--lights must be at least 1, got {args.lights}")
+    for flag, value in (("--rotation", args.rotation), ("--strength", args.strength)):
+        if not np.isfinite(value):
+            raise BTFError(f"{flag} must be a finite number, got {value}")
+    if args.strength < 0:
+        raise BTFError(f"--strength must be ≥ 0, got {args.strength}")
+    width, height = exr_size(args.map)  # the header only: refuse a map too large before reading
+    memory.require(
+        memory.environment(width, height, f"an environment of {width}×{height} pixels")
+        + memory.virtual_lights(args.lights, f"{args.lights} virtual lights")
+    )
     try:
         env = Environment(
             read_exr(args.map), strength=args.strength, rotation_z_rad=np.radians(args.rotation)

@@ -1,12 +1,53 @@
-"""Argument parsing and error handling shared by all commands."""
+"""Argument parsing and the one error boundary shared by all commands.
+
+Every failure ends as one line on stderr and an exit code: 2 for input the user can fix
+(``BTFError``, including ``MemoryLimitError`` for sizes refused up front, and ``OSError``: a
+missing file, a full disk), 1 for an internal error ("internal error: …, rerun with -v"; ``-v``
+prints the traceback), 130 for Ctrl-C and SIGTERM. Interrupts unwind through the writers,
+so ``core/fileio.py`` removes its temporary files on the way out.
+"""
 
 from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
+import traceback
 
+from ..core import memory
 from ..core.errors import BTFError
+
+EXIT_INPUT = 2
+EXIT_INTERNAL = 1
+EXIT_INTERRUPTED = 130
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread like Ctrl-C so every ``finally`` and cleanup runs."""
+
+
+#: Signals received during this command, in order: code that runs callbacks which swallow
+#: exceptions (Blender's render engine reports one and carries on saving) checks it after.
+signals_received: list[int] = []
+
+
+def _on_sigterm(signum, _frame) -> None:
+    signals_received.append(signum)
+    raise Terminated(f"signal {signum}")
+
+
+def _on_sigint(signum, frame) -> None:
+    signals_received.append(signum)
+    signal.default_int_handler(signum, frame)
+
+
+def raise_if_interrupted() -> None:
+    """Re-raise a Ctrl-C or SIGTERM that a callback swallowed (see ``signals_received``)."""
+    if signal.SIGTERM in signals_received:
+        raise Terminated(f"signal {signal.SIGTERM}")
+    if signal.SIGINT in signals_received:
+        raise KeyboardInterrupt
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -15,7 +56,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m btf_addon", description="BTF Materials command-line tools"
     )
-    parser.add_argument("-v", "--verbose", action="store_true", help="log progress to stderr")
+    parser.add_argument(
+        "-v", "--verbose", action="store_true", help="log progress; tracebacks of internal errors"
+    )
+    parser.add_argument(
+        "--max-memory",
+        metavar="SIZE",
+        help="refuse work whose estimated peak memory exceeds SIZE (e.g. 4G); default: what "
+        "the machine has available (also BTF_MEMORY_LIMIT)",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("doctor", help="report what this machine offers the add-on (JSON)")
     p.set_defaults(func=doctor.main)
@@ -27,6 +76,46 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    given = argv if argv is not None else sys.argv[1:]
+    verbose = "-v" in given or "--verbose" in given
+    previous = _install_sigterm()
+    try:
+        return _run(argv)
+    except KeyboardInterrupt as exc:
+        what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        print(f"{what}: stopped, partial outputs removed", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BTFError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except OSError as exc:
+        print(f"error: {_os_error_text(exc)}", file=sys.stderr)
+        return EXIT_INPUT
+    except MemoryError:
+        if verbose:
+            traceback.print_exc()
+        print(
+            "error: out of memory (the up-front estimate missed this case; rerun with -v and "
+            "report it, or use a smaller size)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+    except Exception as exc:
+        if verbose:
+            traceback.print_exc()
+        text = str(exc).strip().splitlines()
+        detail = f": {text[0]}" if text else ""
+        print(
+            f"internal error: {type(exc).__name__}{detail} (a bug: rerun with -v for the "
+            "traceback and report it)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+    finally:
+        _restore_sigterm(previous)
+
+
+def _run(argv: list[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra and not getattr(args, "accepts_params", False):
@@ -36,11 +125,31 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.INFO if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
+    memory.set_limit(memory.parse_size(args.max_memory) if args.max_memory else None)
+    return args.func(args)
+
+
+def _os_error_text(exc: OSError) -> str:
+    """``[Errno 2] No such file or directory: 'x'`` → ``x: No such file or directory``."""
+    if exc.filename is not None and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}"
+    return str(exc) or type(exc).__name__
+
+
+def _install_sigterm():
+    """SIGTERM → ``Terminated``, SIGINT → KeyboardInterrupt, both recorded, in the main thread
+    (elsewhere signals cannot be handled)."""
+    signals_received.clear()
     try:
-        return args.func(args)
-    except BTFError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return (
+            signal.signal(signal.SIGTERM, _on_sigterm),
+            signal.signal(signal.SIGINT, _on_sigint),
+        )
+    except ValueError:  # not the main thread (an embedding host)
+        return None
+
+
+def _restore_sigterm(previous) -> None:
+    if previous is not None:
+        signal.signal(signal.SIGTERM, previous[0])
+        signal.signal(signal.SIGINT, previous[1])

@@ -17,6 +17,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..core import memory
 from ..core.errors import BTFError
 from ..gl.stereo_capture import LAYOUTS, capture_profile
 from ..render.headsets import PROFILES, profile
@@ -83,18 +84,24 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--lights",
-        type=int,
+        type=int,  # its range (1…4096) is the scene property's, checked in _check_ranges
         metavar="N",
         help="N virtual lights standing in for the World (Virtual Lights mode)",
     )
     p.add_argument(
-        "--samples", type=int, metavar="N", help="samples per pixel of the Sampled final mode"
+        "--samples",
+        type=_at_least(1),
+        metavar="N",
+        help="samples per pixel of the Sampled final mode",
     )
     p.add_argument(
-        "--bounces", type=int, metavar="N", help="indirect reflections of the Sampled final mode"
+        "--bounces",
+        type=_at_least(0),
+        metavar="N",
+        help="indirect reflections of the Sampled final mode",
     )
     p.add_argument(
-        "--seed", type=int, metavar="N", help="randomisation of lights and samples' points"
+        "--seed", type=_at_least(0), metavar="N", help="randomisation of lights and samples' points"
     )
     p.add_argument(
         "--device",
@@ -133,6 +140,53 @@ def _resolution(text: str) -> tuple[int, int]:
     if not (1 <= w <= 16384 and 1 <= h <= 16384):
         raise argparse.ArgumentTypeError(f"{w}x{h} is outside 1…16384")
     return w, h
+
+
+def _at_least(low: int):
+    """An integer flag with a least value, refused by argparse (exit 2) before Blender starts:
+    Blender would clamp it silently (a black image for --samples -1)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}, got {value}")
+        return value
+
+    return parse
+
+
+#: How a .blend starts: plain, gzip- or zstd-compressed (Blender writes all three).
+BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
+
+
+def _check_blend(path: Path) -> None:
+    """A file that cannot be a .blend is refused before Blender starts (Blender would print
+    its own error and the command would fail with a traceback)."""
+    if not path.is_file():
+        raise BTFError(f"{path}: no such .blend file")
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    if not head.startswith(BLEND_MAGICS):
+        raise BTFError(f"{path}: not a .blend file (it does not start as one)")
+
+
+def _after_interrupt(output: Path, before: int | None) -> None:
+    """Ctrl-C or SIGTERM during F12 raises inside the engine's render callback, which Blender
+    reports and then saves what was drawn: remove that image and end as interrupted."""
+    from .main import raise_if_interrupted, signals_received
+
+    if signals_received:
+        if output.is_file() and output.stat().st_mtime_ns != before:
+            output.unlink()
+        raise_if_interrupted()
+
+
+def _check_memory(width: int, height: int, lights: int) -> None:
+    """The render's peak (core/memory.py ``render``) against what the process may use."""
+    memory.require(memory.render(width, height, lights, f"a {width}x{height} render"))
 
 
 def _enum_choice(enum_type):
@@ -181,9 +235,11 @@ def cmd_render(args) -> int:
     suffix = args.output.suffix.lower()
     if suffix not in FORMATS:
         raise BTFError(f"{args.output}: output must end in .png or .exr")
-    if args.blend is not None and not args.blend.is_file():
-        raise BTFError(f"{args.blend}: no such .blend file")
+    if args.blend is not None:
+        _check_blend(args.blend)
     _check_stereo_flags(args)
+    if args.resolution is not None:  # known before Blender starts: refuse a size up front
+        _check_memory(*args.resolution, args.lights or 0)
     try:
         import bpy
     except ImportError:
@@ -195,11 +251,22 @@ def cmd_render(args) -> int:
 
             scene = build_demo_scene(args.output.parent / "demo_data")
         else:
-            bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+            try:
+                bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+            except RuntimeError as exc:  # truncated or damaged: Blender's own words
+                raise BTFError(
+                    f"{args.blend}: Blender cannot open it ({_report_text(str(exc))})"
+                ) from None
             scene = bpy.context.scene
         if args.stereo:
             return _render_stereo(bpy, scene, args)
         settings = prepare_scene(scene, args)
+        pct = scene.render.resolution_percentage / 100
+        _check_memory(
+            int(scene.render.resolution_x * pct),
+            int(scene.render.resolution_y * pct),
+            settings.lights_total,
+        )
         output = args.output.resolve()
         before = output.stat().st_mtime_ns if output.is_file() else None
         with _device_preference(bpy, package, args.device):
@@ -208,6 +275,8 @@ def cmd_render(args) -> int:
                 bpy.ops.render.render(write_still=True)
             except RuntimeError as exc:  # the engine's ERROR reports, e.g. a compile error
                 raise BTFError(_report_text(str(exc))) from None
+            finally:
+                _after_interrupt(output, before)
             seconds = time.perf_counter() - t0
         pct = scene.render.resolution_percentage / 100
         w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)

@@ -88,14 +88,22 @@ def read_material_info(directory: Path) -> MaterialInfo:
     if len(material) != 9:
         raise BTFFormatError(f"{path}: line 15 must be the material line with 9 fields")
     name = material[0]
+    if name in (".", "..") or any(c in name for c in "/\\:"):
+        raise BTFFormatError(f"{path}: line 15: material name {name!r} is not a plain file name")
     ro, co, pr, pc = _ints(material[4:8], path, "material line offsets and size")
     hdr_value = _float(material[8], path)
+    if hdr_value < 0:
+        raise BTFFormatError(f"{path}: line 15: the HDR multiplier must be ≥ 0, got {hdr_value}")
     per_material = directory / f"{name}_materialInfo.txt"
     if per_material.is_file():  # the original reads the multiplier from here last
         fields = per_material.read_text(errors="replace").split()
         if len(fields) != 9 or fields[0] != name:
             raise BTFFormatError(f"{per_material}: expected 9 fields starting with {name!r}")
         hdr_value = _float(fields[8], per_material)
+        if hdr_value < 0:
+            raise BTFFormatError(f"{per_material}: the HDR multiplier must be ≥ 0, got {hdr_value}")
+    if min(n_colour, n_views, n_lights) < 0:
+        raise BTFFormatError(f"{path}: lines 7–9: colour, view and light counts must be ≥ 0")
     use_cos_beta, n_beta, _, n_alpha, _, n_theta, _, n_phi, *_, code_btf = par
     if n_beta < 3 or n_beta % 2 == 0 or n_alpha < 3 or n_alpha % 2 == 0:
         raise BTFFormatError(f"{path}: beta/alpha step counts must be odd and ≥ 3")
@@ -133,10 +141,17 @@ def _float(token: str, path: Path) -> float:
 
 
 def read_table(path: Path, integer: bool, cols: int | None = None) -> np.ndarray:
-    """One ``rows cols min max`` table → (rows, cols) int32 or float32 array."""
+    """One ``rows cols min max`` table → (rows, cols) int32 or float32 array.
+
+    Checked before the values are converted: the header's four fields, the value count it
+    declares against the tokens present (no allocation from a header's word alone), and that
+    the file ends after a whole number (the original tool ends every table with a newline: a
+    file cut inside its last number has the right count but a wrong last value). Errors name
+    the file and, for a bad token, its line."""
     if not path.is_file():
         raise BTFFormatError(f"{path}: file is missing")
-    tokens = path.read_bytes().split()
+    data = path.read_bytes()
+    tokens = data.split()
     if len(tokens) < 4:
         raise BTFFormatError(f"{path}: header 'rows cols min max' is missing or truncated")
     try:
@@ -144,29 +159,58 @@ def read_table(path: Path, integer: bool, cols: int | None = None) -> np.ndarray
         float(tokens[2]), float(tokens[3])  # min, max: unused, but part of a well-formed header
     except ValueError:
         raise BTFFormatError(
-            f"{path}: header must be 'rows cols min max' (two integers, two numbers)"
+            f"{path}: header must be 'rows cols min max' (two integers, two numbers) on line 1"
         ) from None
     if rows <= 0 or ncols <= 0:
         raise BTFFormatError(f"{path}: header declares an empty table ({rows}×{ncols})")
     if cols is not None and ncols != cols:
         raise BTFFormatError(f"{path}: expected {cols} columns, header says {ncols}")
     body = tokens[4:]
+    lines = data.count(b"\n") + (not data.endswith(b"\n"))
     if len(body) != rows * ncols:
         raise BTFFormatError(
             f"{path}: header declares {rows}×{ncols} = {rows * ncols} values, found {len(body)}"
             + (" (truncated?)" if len(body) < rows * ncols else " (trailing data)")
+            + f", ending at line {lines}"
+        )
+    if not data[-1:].isspace():
+        raise BTFFormatError(
+            f"{path}: line {lines}: the file ends inside a number "
+            "(truncated: the original tables end with a newline)"
         )
     try:
         values = np.array(body, dtype=np.float64)
     except ValueError:
-        raise BTFFormatError(f"{path}: contains a token that is not a number") from None
+        raise BTFFormatError(f"{path}: {_bad_token(data)}") from None
     if not np.all(np.isfinite(values)):
-        raise BTFFormatError(f"{path}: contains NaN or infinite values")
+        raise BTFFormatError(f"{path}: {_bad_token(data, finite=True)}")
     if integer:
         if not np.all(values == np.round(values)):
             raise BTFFormatError(f"{path}: an index table contains non-integer values")
+        if values.size and (values.min() < -(2**31) or values.max() > 2**31 - 1):
+            raise BTFFormatError(f"{path}: an index table holds values beyond 32-bit integers")
         return values.astype(np.int32).reshape(rows, ncols)
+    limit = float(np.finfo(np.float32).max)
+    if values.size and np.abs(values).max() > limit:
+        raise BTFFormatError(f"{path}: {_bad_token(data, limit=limit)}")
     return values.astype(np.float32).reshape(rows, ncols)
+
+
+def _bad_token(data: bytes, finite: bool = False, limit: float | None = None) -> str:
+    """'line N: <token> is not a number' for the first offending token (error path only)."""
+    for number, line in enumerate(data.splitlines(), start=1):
+        for i, token in enumerate(line.split()):
+            if number == 1 and i < 4:
+                continue
+            try:
+                value = float(token)
+            except ValueError:
+                return f"line {number}: {token[:40].decode(errors='replace')!r} is not a number"
+            if finite and not np.isfinite(value):
+                return f"line {number}: NaN or infinite value {token.decode(errors='replace')!r}"
+            if limit is not None and abs(value) > limit:
+                return f"line {number}: {token.decode(errors='replace')!r} is beyond float32"
+    return "contains a token that is not a number"
 
 
 def check_index_range(table: np.ndarray, low: int, high: int, path: Path, target: str) -> None:

@@ -67,23 +67,34 @@ class Environment:
     """An HDR environment (or a constant colour) that can be looked up and sampled."""
 
     def __init__(self, image: np.ndarray, strength: float = 1.0, rotation_z_rad: float = 0.0):
-        image = np.asarray(image, dtype=np.float64)
+        image = np.asarray(image)
         if image.ndim == 2:
             image = np.repeat(image[..., None], 3, axis=-1)
         if image.ndim != 3 or image.shape[2] < 3 or min(image.shape[:2]) < 1:
             raise ValueError(f"environment image must be (H, W, 3), got {image.shape}")
-        image = image[..., :3]
-        bad = ~np.isfinite(image)
+        if not np.isfinite(strength) or strength < 0:
+            raise ValueError(f"environment strength must be finite and ≥ 0, got {strength!r}")
+        if not np.isfinite(rotation_z_rad):
+            raise ValueError(f"environment rotation must be finite, got {rotation_z_rad!r}")
+        # One float64 copy, cleaned and scaled in place: a large map is held once, not three
+        # times (memory model: core/memory.py ENV_PIXEL_BYTES); the values are the same.
+        with np.errstate(invalid="ignore"):  # signalling NaNs in a file: cleaned just below
+            radiance = np.array(image[..., :3], dtype=np.float64)
+        del image
+        bad = ~np.isfinite(radiance)
         self.nonfinite_count = int(np.count_nonzero(np.any(bad, axis=-1)))
-        self.negative_count = int(np.count_nonzero(np.any(image < 0, axis=-1)))
+        negative = radiance < 0
+        self.negative_count = int(np.count_nonzero(np.any(negative, axis=-1)))
         if self.nonfinite_count:
             log.warning("environment: %d NaN/Inf pixels set to 0", self.nonfinite_count)
         if self.negative_count:  # HDR files often hold tiny negative noise: not worth a warning
             log.debug("environment: %d negative pixels set to 0", self.negative_count)
-        clean = np.where(bad | (image < 0), 0.0, image)
-        if not np.isfinite(strength) or strength < 0:
-            raise ValueError(f"environment strength must be finite and ≥ 0, got {strength!r}")
-        self.radiance = clean * float(strength)
+        bad |= negative
+        del negative
+        radiance[bad] = 0.0
+        del bad
+        radiance *= float(strength)
+        self.radiance = radiance
         self.height, self.width = self.radiance.shape[:2]
         self.rotation_z_rad = float(rotation_z_rad)
         self._build_distribution()
@@ -159,10 +170,9 @@ class Environment:
         row_lo = self.row_cdf[row]
         row_w = np.maximum(self.row_cdf[row + 1] - row_lo, 1e-300)
         dt = np.clip((u[:, 0] - row_lo) / row_w, 0.0, np.nextafter(1.0, 0.0))
-        cdf = self.col_cdf[row]
-        col = np.clip((cdf <= u[:, 1:2]).sum(axis=1) - 1, 0, self.width - 1)
-        col_lo = cdf[np.arange(len(row)), col]
-        col_w = np.maximum(cdf[np.arange(len(row)), col + 1] - col_lo, 1e-300)
+        col = np.clip(self._search_columns(row, u[:, 1]), 0, self.width - 1)
+        col_lo = self.col_cdf[row, col]
+        col_w = np.maximum(self.col_cdf[row, col + 1] - col_lo, 1e-300)
         ds = np.clip((u[:, 1] - col_lo) / col_w, 0.0, np.nextafter(1.0, 0.0))
         s = (col + ds) / self.width
         t = (row + dt) / self.height
@@ -173,6 +183,22 @@ class Environment:
             self.radiance[row, col],
             pdf_image / (2 * np.pi * np.pi * sin_t),
         )
+
+    def _search_columns(self, row: np.ndarray, u1: np.ndarray) -> np.ndarray:
+        """(N,) rows and numbers → (N,) index of the last column cdf entry ≤ u1 (−1 if none).
+
+        One binary search per distinct row over that row's cdf: memory O(N), never the
+        (N × width) comparison matrix (10⁶ lights over an 8k-wide map would need 8 GB). Each
+        cdf row is non-decreasing, so the count of entries ≤ u1 is searchsorted's 'right'."""
+        col = np.empty(len(row), dtype=np.int64)
+        order = np.argsort(row, kind="stable")
+        rows_sorted = row[order]
+        starts = np.flatnonzero(np.r_[True, rows_sorted[1:] != rows_sorted[:-1]])
+        ends = np.r_[starts[1:], len(order)]
+        for start, end in zip(starts, ends, strict=True):
+            idx = order[start:end]
+            col[idx] = np.searchsorted(self.col_cdf[rows_sorted[start]], u1[idx], side="right")
+        return col - 1
 
     def invert(self, world_dirs: np.ndarray) -> np.ndarray:
         """The (N, 2) uniform numbers that ``sample`` maps to these directions."""

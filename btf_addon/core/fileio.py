@@ -1,14 +1,26 @@
 """The one way files are written: into a temporary file beside the target, flushed to disk,
 then renamed over it. A failed or interrupted write never leaves a half-written file under the
-requested name, and an existing file stays intact until the new one is complete."""
+requested name, and an existing file stays intact until the new one is complete.
+
+Temporary files are named ``.<stem>.pid<PID>-<host>.<random>.tmp<suffix>``: the writer's process
+id and machine are in the name, so a later write to the same target on the same machine removes
+the leftovers of writers that were killed (SIGKILL, power loss) and whose process is gone.
+The output gets the permissions any other new file would (``0666 & ~umask``), not mkstemp's
+private 0600.
+"""
 
 from __future__ import annotations
 
+import logging
 import os
+import re
+import socket
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
+
+log = logging.getLogger(__name__)
 
 
 def atomic_write(path: str | Path, write: Callable[[BinaryIO], None]) -> Path:
@@ -24,14 +36,85 @@ def atomic_write_path(path: str | Path, write: Callable[[Path], None]) -> Path:
     return _atomic(Path(path), lambda tmp, fh: write(tmp))
 
 
+def _host() -> str:
+    """This machine's name as it may appear in a file name: a shared folder (NFS) seen from
+    several machines must not have one machine judge another's process ids."""
+    return re.sub(r"[^A-Za-z0-9-]", "", socket.gethostname())[:32] or "host"
+
+
+def temp_prefix(path: Path) -> str:
+    """The start of every temporary file name this process uses for ``path``."""
+    return f".{path.stem}.pid{os.getpid()}-{_host()}."
+
+
+def current_umask() -> int:
+    """The process umask, read without changing it where the system allows (Linux exposes it
+    in /proc; elsewhere it is set and restored at once)."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # exists but belongs to someone else (or unknowable): leave its file
+    return True
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Delete temporaries for ``path`` left by writers whose process no longer exists.
+
+    Only names of our own pattern written on this machine (``.<stem>.pid<N>-<host>.*.tmp<suffix>``)
+    are considered; a file of a live process (a concurrent writer) is left alone. Returns the
+    files removed."""
+    pattern = re.compile(
+        re.escape(f".{path.stem}.pid")
+        + r"(\d+)-"
+        + re.escape(_host())
+        + r"\.[^/]*\.tmp"
+        + re.escape(path.suffix)
+        + "$"
+    )
+    removed = []
+    try:
+        entries = list(path.parent.iterdir())
+    except OSError:
+        return removed
+    for entry in entries:
+        m = pattern.match(entry.name)
+        if m and not _pid_alive(int(m.group(1))):
+            try:
+                entry.unlink()
+                removed.append(entry)
+                log.info("removed a stale temporary file %s", entry)
+            except OSError:
+                pass  # another writer cleaned it first, or the folder is read-only
+    return removed
+
+
 def _atomic(path: Path, write: Callable[[Path, BinaryIO], None]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(path)
     # The suffix is kept last: np.save/np.savez and some image writers look at it.
     fd, name = tempfile.mkstemp(
-        prefix=f".{path.stem}.", suffix=".tmp" + path.suffix, dir=path.parent
+        prefix=temp_prefix(path), suffix=".tmp" + path.suffix, dir=path.parent
     )
     tmp = Path(name)
     try:
+        os.chmod(fd if os.chmod in os.supports_fd else tmp, 0o666 & ~current_umask())
         with os.fdopen(fd, "r+b") as fh:
             write(tmp, fh)
             fh.flush()

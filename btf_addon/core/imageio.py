@@ -55,6 +55,29 @@ def read_exr(path: str | Path) -> np.ndarray:
     return np.asarray(rgb, dtype=np.float32)
 
 
+def exr_size(path: str | Path) -> tuple[int, int]:
+    """(width, height) of an EXR from its header alone (no pixels read): what the memory model
+    needs before a large map is loaded."""
+    try:
+        import OpenEXR
+    except ImportError:
+        raise BTFFormatError(
+            "reading EXR needs the OpenEXR package (pip install openexr)"
+        ) from None
+    path = Path(path)
+    if not path.is_file():
+        raise BTFFormatError(f"{path}: no such file")
+    try:
+        with OpenEXR.File(str(path), header_only=True) as exr:
+            (x0, y0), (x1, y1) = (np.asarray(c).tolist() for c in exr.header()["dataWindow"])
+    except Exception as exc:  # the binding raises plain exceptions for corrupt files
+        raise BTFFormatError(f"{path}: not a readable OpenEXR file ({exc})") from None
+    width, height = int(x1) - int(x0) + 1, int(y1) - int(y0) + 1
+    if width < 1 or height < 1:
+        raise BTFFormatError(f"{path}: empty data window ({width}×{height})")
+    return width, height
+
+
 def write_png(path: str | Path, rgb8: np.ndarray) -> Path:
     """(H, W, 3) uint8 → PNG (filter 0 per row, zlib level 6)."""
     rgb8 = np.ascontiguousarray(rgb8, dtype=np.uint8)

@@ -27,12 +27,22 @@ def probe_blender() -> dict:
 
 
 def probe_opencl() -> dict:
+    from ..cl import programs
     from ..cl.devices import best_device_index, list_devices
 
-    devices = list_devices()
+    devices = list_devices()  # first: it moves unwritable driver caches to temporary folders
+    kernel_cache = str(programs.cache_dir())
     if not devices:
-        raise RuntimeError("OpenCL platforms exist but offer no devices")
-    return {"devices": [d.to_json() for d in devices], "default_device": best_device_index(devices)}
+        raise RuntimeError(
+            f"OpenCL platforms exist but offer no devices{programs.cache_diagnosis()}"
+        )
+    return {
+        "devices": [d.to_json() for d in devices],
+        "default_device": best_device_index(devices),
+        "kernel_cache": kernel_cache,
+        # Folder → why it could not be written; a temporary folder was used instead.
+        "unwritable_cache_folders": dict(programs.unwritable_folders),
+    }
 
 
 def probe_opengl() -> dict:

@@ -1,0 +1,16 @@
+"""The installed extension keeps compiled OpenCL kernels in its user directory (removed with
+the extension), not in ~/.cache."""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+from blender_helpers import EXTENSION_MODULE
+
+
+def test_kernel_cache_lives_in_the_extensions_user_directory(bpy_module, installed):
+    programs = importlib.import_module(f"{EXTENSION_MODULE}.btf_addon.cl.programs")
+    folder = Path(bpy_module.utils.extension_path_user(EXTENSION_MODULE, path="kernel_cache"))
+    assert programs.configured_cache_dir() == folder
+    assert programs.cache_dir() == folder and folder.is_dir()
