@@ -537,6 +537,26 @@ def run(
     return estimate
 
 
+def reference_noise(estimate: Estimate) -> float | None:
+    """The reference's own relative noise, estimated from the samples sweep: rung and
+    reference noise are independent, so err² = σ²/n + floor² per rung of n samples; the two
+    rungs with the most samples give σ², and the reference's noise is σ/√n_ref (its extra
+    bounces are ignored: an estimate). None when the sweep does not allow one. Errors near
+    this value are the reference's noise, not the rung's."""
+    sweep = sorted(
+        (p for p in estimate.points if p.rung.sweep == "samples"),
+        key=lambda p: p.rung.settings.samples,
+    )
+    if len(sweep) < 2:
+        return None
+    a, b = sweep[-2], sweep[-1]
+    n1, n2 = a.rung.settings.samples, b.rung.settings.samples
+    sigma2 = (a.rmse**2 - b.rmse**2) / (1 / n1 - 1 / n2)
+    if not sigma2 > 0:
+        return None
+    return math.sqrt(sigma2 / estimate.reference.samples)
+
+
 def describe_rung(rung: Rung, knobs: Sequence[Knob] = KNOBS) -> str:
     """ "Sampled: samples=16, max_bounces=4" style text of the knobs that apply."""
     values = rung.knob_values(knobs)

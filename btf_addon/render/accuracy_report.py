@@ -27,6 +27,7 @@ from .accuracy import (
     error_map,
     pareto_front,
     recommend,
+    reference_noise,
     settings_json,
     ssim_map,
 )
@@ -71,6 +72,7 @@ def to_json(
             "settings": settings_json(estimate.reference),
             "seconds": _num(estimate.reference_seconds),
             "size": list(estimate.preview_size),
+            "noise_rmse": _num(noise) if (noise := reference_noise(estimate)) else None,
         },
         "setup_seconds": _num(estimate.setup_seconds),
         "points": [
@@ -249,7 +251,9 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
         f"Reference: sampled, {ref['settings']['samples']} samples, "
         f"{ref['settings']['max_bounces']} bounces, seed {ref['settings']['seed']} — "
         f"{_s(ref['seconds'])} s at {pw}x{ph}. Setup (export, device, upload): "
-        f"{_s(data['setup_seconds'])} s.",
+        f"{_s(data['setup_seconds'])} s. Its own noise, estimated from the samples sweep: "
+        f"relative RMSE {_s(ref['noise_rmse'])} — errors near it are the reference's noise "
+        "(raise --reference-samples to resolve them).",
         "",
         "Errors against the reference: **relative RMSE** (linear radiance) and **1 − SSIM** "
         "(structural similarity of the displayed sRGB luminance, Gaussian σ = 1.5 px).",
