@@ -17,6 +17,7 @@ MODULES = (
     "import_btf",
     "engine",
     "ui",
+    "accuracy_operator",  # after ui: its panel is a child of BTF_PT_render_settings
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",

@@ -128,57 +128,64 @@ def write_json(folder: Path, data: dict[str, Any]) -> Path:
 
 
 def error_plot(
-    estimate: Estimate,
+    data: dict[str, Any],
     metric: str = "rmse",
-    budget: float | None = None,
-    target: float | None = None,
     size: tuple[int, int] = (640, 420),
     scale: int = 1,
 ) -> np.ndarray:
-    """Error (``metric``) against predicted full-resolution time, log–log: one curve per
+    """Error (``metric``) against predicted full-resolution time, log–log, from a report's
+    JSON (``to_json``: so the Blender panel redraws it from the stored report): one curve per
     swept knob, the Pareto front in black, the recommendation circled, the budget and target
     as dashed lines. (h, w, 3) uint8."""
-    points = estimate.points
+    points = data["points"]
+    fw, fh = data["full_size"]
     plot = Plot(
-        title=f"{METRICS[metric]} vs time at {estimate.full_size[0]}x{estimate.full_size[1]}",
+        title=f"{METRICS[metric]} vs time at {fw}x{fh}",
         x_label="predicted seconds (full resolution)",
         y_label=METRICS[metric],
         x_log=True,
         y_log=True,
     )
-    by_series: dict[str, list[int]] = {}
-    for i, p in enumerate(points):
-        by_series.setdefault(p.rung.series, []).append(i)
-    for name, idx in by_series.items():
-        idx.sort(key=lambda i: points[i].predicted_seconds)
-        plot.series.append(
-            Series(
-                name,
-                [points[i].predicted_seconds for i in idx],
-                [getattr(points[i], metric) for i in idx],
-            )
-        )
-    front = pareto_front(points, metric)
+    by_series: dict[str, list[dict]] = {}
+    for p in points:
+        by_series.setdefault(p["series"], []).append(p)
+    for name, members in by_series.items():
+        members = sorted(members, key=lambda p: p["predicted_seconds"] or 0.0)
+        plot.series.append(Series(name, *_xy(members, metric)))
+    front = [points[i] for i in _front(points, metric)]
     if len(front) > 1:
-        plot.series.append(
-            Series(
-                "Pareto front",
-                [points[i].predicted_seconds for i in front],
-                [getattr(points[i], metric) for i in front],
-                colour=(0, 0, 0),
-                width=1,
-                marker=0,
-            )
-        )
-    rec = recommend(points, budget, target if metric == "rmse" else None, metric)
-    if rec is not None:
-        p = points[rec.index]
-        plot.rings.append((p.predicted_seconds, getattr(p, metric)))
+        xs, ys = _xy(front, metric)
+        plot.series.append(Series("Pareto front", xs, ys, colour=(0, 0, 0), width=1, marker=0))
+    rec = data.get("recommendation")
+    if rec is not None and metric == "rmse":
+        plot.rings.append((rec["predicted_seconds"] or math.nan, rec["rmse"] or math.nan))
+    budget, target = data.get("budget_seconds"), data.get("target_rmse")
     if budget is not None:
         plot.vlines.append((budget, f"budget {budget:g} s"))
     if target is not None and metric == "rmse":
         plot.hlines.append((target, f"target {target:g}"))
     return render_plot(plot, *size, scale=scale)
+
+
+def _xy(points: list[dict], metric: str) -> tuple[list[float], list[float]]:
+    def num(v):
+        return math.nan if v is None else float(v)
+
+    return [num(p["predicted_seconds"]) for p in points], [num(p[metric]) for p in points]
+
+
+def _front(points: list[dict], metric: str) -> list[int]:
+    """The Pareto front of JSON points in ``metric`` (the stored flag is for RMSE)."""
+    stand_ins = []
+    for p in points:
+        x, y = p["predicted_seconds"], p[metric]
+        stand_ins.append(_Pt(math.inf if x is None else x, math.inf if y is None else y))
+    return pareto_front(stand_ins, "error")
+
+
+class _Pt:
+    def __init__(self, seconds: float, error: float):
+        self.predicted_seconds, self.error = seconds, error
 
 
 def write_report(
@@ -196,7 +203,7 @@ def write_report(
         written["markdown"] = _write_text(folder / "report.md", _markdown(data, {}))
         return written
     for metric, name in (("rmse", "error_vs_time.png"), ("ssim_loss", "ssim_vs_time.png")):
-        written[metric] = write_png(folder / name, error_plot(estimate, metric, budget, target))
+        written[metric] = write_png(folder / name, error_plot(data, metric))
     heat = {}
     rec = data["recommendation"]
     base_index = _base_index(estimate)
