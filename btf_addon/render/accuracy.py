@@ -296,6 +296,7 @@ class TimeModel:
     setup_seconds: float
     classes: Mapping[tuple, tuple[float, float]]  # class → (overhead s, seconds per unit)
     knobs: tuple[Knob, ...] = KNOBS
+    residual: float = 0.0  # largest |measured − fitted| / fitted over the rungs fitted
 
     def predict(self, rung: Rung, pixels: int) -> float:
         key = cost_class(rung, self.knobs)
@@ -342,7 +343,13 @@ def fit_time_model(
         w, s = np.mean([p[0] for p in groups[key]]), np.mean([p[1] for p in groups[key]])
         overhead = min(common, 0.5 * float(s))
         fitted[key] = (overhead, max(float(s) - overhead, 1e-12) / float(w))
-    return TimeModel(float(setup_seconds), fitted, tuple(knobs))
+    residual = 0.0
+    for key, points in groups.items():
+        overhead, rate = fitted[key]
+        for w, t in points:
+            fit = overhead + rate * w
+            residual = max(residual, abs(t - fit) / fit)
+    return TimeModel(float(setup_seconds), fitted, tuple(knobs), residual)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -96,6 +96,7 @@ def to_json(
     if estimate.model is not None:
         out["time_model"] = {
             "setup_seconds": _num(estimate.model.setup_seconds),
+            "max_residual": _num(estimate.model.residual),
             "classes": [
                 {
                     "class": dict(key),
@@ -304,7 +305,16 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
         lines.append("")
     model = data["time_model"]
     if model:
-        lines += ["## Time model", "", "| cost class | overhead s | ns per unit | unit |"]
+        lines += [
+            "## Time model",
+            "",
+            f"seconds = setup {_s(model['setup_seconds'])} s + overhead + ns per unit × units. "
+            f"The fit's largest residual on the ladder: {100 * model['max_residual']:.0f} % "
+            "(the timing noise of this device while it measured: expect full-size times "
+            "at least that far from the prediction).",
+            "",
+            "| cost class | overhead s | ns per unit | unit |",
+        ]
         lines.append("|---|---|---|---|")
         for c in model["classes"]:
             key = tuple(c["class"].items())

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
-from helpers import ROOT, make_blend, read_png, run_cli
+from helpers import ROOT, cli_env, make_blend, read_png, run_cli
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.container import write_container
@@ -110,3 +114,49 @@ def test_accuracy_errors_are_clear(tmp_path):
     assert proc.returncode == 2 and "headlight" in proc.stderr and "Traceback" not in proc.stderr
     proc = run_cli("accuracy", "--blend", blend, "--budget", "-1", check=False)
     assert proc.returncode == 2 and "must be > 0" in proc.stderr
+
+
+def test_ctrl_c_keeps_what_is_done(tmp_path):
+    """SIGINT once the first rungs are in report.json: the command writes the report of what
+    it has (marked interrupted), recommends from it, and exits with 130."""
+    blend = make_scene(tmp_path)
+    out = tmp_path / "report"
+    # At the full 64×48 the ladder takes several seconds after its first rung: time to
+    # interrupt it part-way.
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "btf_addon",
+            "accuracy",
+            "--blend",
+            str(blend),
+            "-o",
+            str(out),
+            "--size",
+            "64",
+            "--reference-samples",
+            "64",
+        ],
+        cwd=ROOT,
+        env=cli_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:
+            report = out / "report.json"
+            if report.is_file() and json.loads(report.read_text())["rungs_done"] >= 1:
+                break
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    data = json.loads((out / "report.json").read_text())
+    assert proc.returncode == 130, stderr
+    assert data["interrupted"] and 1 <= data["rungs_done"] < data["rungs_total"]
+    assert "interrupted" in stderr and "recommended: " in stdout
+    assert "Interrupted" in (out / "report.md").read_text()

@@ -282,3 +282,17 @@ def test_settings_round_trip_through_json():
     data = acc.settings_json(s)
     assert data["final_mode"] == "SAMPLED"
     assert acc.settings_from_json({**data, "from_a_newer_build": 1}, RenderSettings()) == s
+
+
+def test_time_model_states_its_largest_residual():
+    rungs = [_rung(lights_total=n) for n in (1, 2, 4)]
+
+    def fit(seconds):
+        timings = [acc.Timing(r, 10, t) for r, t in zip(rungs, seconds, strict=True)]
+        return acc.fit_time_model(timings)
+
+    assert fit([1.0, 2.0, 4.0]).residual == pytest.approx(0.0, abs=1e-9)
+    # One rung 50 % slow: the least-squares line through (10, 1), (20, 3), (40, 4) is
+    # t = 1/2 + (13/140)·w (by hand: Sxy = 130/3, Sxx = 1400/3); the first rung is furthest
+    # from it: |1 − 10/7| / (10/7) = 0.3.
+    assert fit([1.0, 3.0, 4.0]).residual == pytest.approx(0.3, rel=1e-9)
