@@ -23,7 +23,7 @@ from bpy.props import FloatProperty, IntProperty, PointerProperty, StringPropert
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ..core.errors import BTFError
-from ..render.accuracy import run, settings_from_json
+from ..render.accuracy import run, settings_from_json, verify_recommendation
 from ..render.accuracy_report import error_plot, to_json
 from ..render.settings import RenderSettings
 from .accuracy_run import prepare
@@ -107,6 +107,15 @@ class Job:
                 on_progress=self._progress,
                 cancelled=self.cancel.is_set,
             )
+            if not self.estimate.interrupted:
+                self._progress(1.0, "verifying the recommendation")
+                verify_recommendation(
+                    self.estimate,
+                    self.renderer,
+                    self.budget,
+                    self.target,
+                    cancelled=self.cancel.is_set,
+                )
         except Exception as exc:  # shown by the operator on the main thread
             log.exception("quality estimate failed")
             self.error = exc

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ..core.errors import BTFError
-from ..render.accuracy import describe_rung, run
+from ..render.accuracy import describe_rung, run, verify_recommendation
 from ..render.accuracy_report import to_json, write_json, write_report
 
 DESCRIPTION = """\
@@ -159,6 +159,9 @@ def cmd_accuracy(args) -> int:
             on_progress=bar,
             on_point=lambda e: write_json(folder, to_json(e, args.budget, target)),
         )
+        if not estimate.interrupted:
+            bar(1.0, "verifying the recommendation with more seeds")
+            verify_recommendation(estimate, renderer, args.budget, target)
     except KeyboardInterrupt:
         estimate.interrupted = True
     finally:

@@ -365,6 +365,7 @@ class Point:
     rmse: float  # relative RMSE against the reference
     ssim_loss: float  # 1 − SSIM of the displayed images
     predicted_seconds: float = math.nan  # full resolution, from the time model
+    seeds: int = 1  # images the errors are pooled over (verify_recommendation)
 
 
 def pareto_front(points: Sequence[Point], metric: str = "rmse") -> list[int]:
@@ -542,6 +543,56 @@ def run(
             on_point(estimate)
     report(1.0, "done")
     return estimate
+
+
+def verify_recommendation(
+    estimate: Estimate,
+    render: RenderFn,
+    budget: float | None = None,
+    target: float | None = None,
+    max_seeds: int = 4,
+    cancelled: Callable[[], bool] = lambda: False,
+    rounds: int = 3,
+) -> Recommendation | None:
+    """Re-measure the recommended rung's error over more pixels before it is stated.
+
+    A noisy rung's error is a mean over pixels of a heavy-tailed quantity: rare very bright
+    pixels (fireflies) carry much of the mean square, and a small preview usually holds fewer
+    of them than the full-size image will, so one preview understates the error. The rung is
+    rendered again with other seeds, k images in all (k = full pixels ÷ preview pixels, at
+    most ``max_seeds``), and its errors become the pooled ones (mean squared error and mean
+    SSIM over the k images, against the one reference). Deterministic rungs (no sampling) need
+    nothing. If the pooled error moves the recommendation, the new one is verified too (up to
+    ``rounds`` times). Returns the final recommendation."""
+    k = max(1, min(max_seeds, math.ceil(estimate.full_pixels / estimate.preview_pixels)))
+    ref = estimate.reference_image
+    for _ in range(rounds):
+        rec = recommend(estimate.points, budget, target)
+        if rec is None or ref is None:
+            return rec
+        i = rec.index
+        point = estimate.points[i]
+        if point.seeds >= k or not point.rung.settings.sampled:
+            return rec
+        mse = [(point.rmse * _rms(ref)) ** 2]
+        ssim = [point.ssim_loss]
+        for extra in range(1, k):
+            seed = point.rung.settings.seed + 104729 * extra  # away from the reference's
+            rung = replace(point.rung, settings=replace(point.rung.settings, seed=seed))
+            image = render(rung, lambda _f: not cancelled())
+            if image is None or cancelled():
+                return rec
+            image = np.asarray(image, dtype=np.float32)[..., :3]
+            mse.append(relative_rmse(image, ref) ** 2 * _rms(ref) ** 2)
+            ssim.append(ssim_loss(image, ref))
+        point.rmse = math.sqrt(float(np.mean(mse))) / (_rms(ref) or 1.0)
+        point.ssim_loss = float(np.mean(ssim))
+        point.seeds = k
+    return recommend(estimate.points, budget, target)
+
+
+def _rms(image: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(_rgb(image) ** 2)))
 
 
 def reference_noise(estimate: Estimate) -> float | None:

@@ -87,6 +87,7 @@ def to_json(
                 "rmse": _num(p.rmse),
                 "ssim_loss": _num(p.ssim_loss),
                 "pareto": i in front,
+                "seeds": p.seeds,
             }
             for i, p in enumerate(points)
         ],
@@ -119,6 +120,7 @@ def to_json(
             "rmse": _num(p.rmse),
             "ssim_loss": _num(p.ssim_loss),
             "predicted_seconds": _num(p.predicted_seconds),
+            "seeds": p.seeds,
         }
     return out
 
@@ -281,6 +283,11 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
             f"**{rec['describe']}** — {rec['reason']}: relative RMSE {_s(rec['rmse'])}, "
             f"1 − SSIM {_s(rec['ssim_loss'])}, predicted {_s(rec['predicted_seconds'])} s "
             f"at {fw}x{fh}" + ("" if rec["met"] else " (the request could not be met)") + ".",
+            "",
+            f"Its errors are pooled over {rec['seeds']} image(s) of different seeds "
+            f"({rec['seeds']} × the preview's pixels): rare bright pixels (fireflies) carry much "
+            "of a noisy render's squared error, and one small preview holds fewer of them than "
+            "the full-size image will. Errors of the other rungs are from one preview each.",
             "",
         ]
     if data["points"]:

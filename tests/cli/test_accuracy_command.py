@@ -13,6 +13,8 @@ from helpers import ROOT, cli_env, make_blend, read_png, run_cli
 
 from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.container import write_container
+from btf_addon.core.imageio import read_exr
+from btf_addon.render.accuracy import relative_rmse
 
 #: A Lambertian sphere on a Lambertian ground under the forest studiolight, 64×48: shadows and
 #: interreflection exist, so every knob (lights, samples, bounces) changes the image.
@@ -95,6 +97,26 @@ def test_accuracy_report_of_a_small_scene(tmp_path):
     ref = read_png(out / "reference.png")
     assert ref.shape == (18, 24, 3) and np.ptp(ref) > 50  # a lit image, not black
     assert "<table" in (out / "report.html").read_text()
+
+    # The recommendation rendered at full size by `render --blend` lands within its stated
+    # error against a full-size reference of the report's reference settings. Margin 1.5×:
+    # the full-size error is measured on 7× the pixels, with its own reference noise.
+    def render(settings, path):
+        flags = {
+            "final_mode": "--final-mode",
+            "lights_total": "--lights",
+            "samples": "--samples",
+            "max_bounces": "--bounces",
+            "seed": "--seed",
+        }
+        args = [a for name, flag in flags.items() for a in (flag, str(settings[name]).lower())]
+        run_cli("render", "--blend", blend, "-o", path, *args)
+        return read_exr(path)
+
+    reference = render(data["reference"]["settings"], tmp_path / "ref.exr")
+    image = render(rec["settings"], tmp_path / "rec.exr")
+    full_error = relative_rmse(image, reference)
+    assert full_error <= 1.5 * rec["rmse"], (full_error, rec["rmse"])
 
 
 def test_accuracy_errors_are_clear(tmp_path):

@@ -296,3 +296,46 @@ def test_time_model_states_its_largest_residual():
     # t = 1/2 + (13/140)·w (by hand: Sxy = 130/3, Sxx = 1400/3); the first rung is furthest
     # from it: |1 − 10/7| / (10/7) = 0.3.
     assert fit([1.0, 3.0, 4.0]).residual == pytest.approx(0.3, rel=1e-9)
+
+
+def test_verify_pools_the_recommendations_error_over_more_seeds(rng):
+    """A sampled recommendation is re-rendered with other seeds (k = full ÷ preview pixels,
+    at most 4) and its error becomes the pooled one: here one extra seed holds a firefly, so
+    the pooled error rises past the target and the recommendation moves to the next rung."""
+    ref = np.full((6, 8, 3), 0.5)
+    base = RenderSettings(final_mode=FinalMode.SAMPLED, samples=16, max_bounces=2)
+    est = acc.Estimate(base, (8, 6), (16, 12), acc.reference_settings(base, 64))  # k = 4
+    est.reference_image = ref
+    seen = []
+
+    def render(rung, _progress):
+        seen.append(rung.settings.seed)
+        image = ref * (1 + 0.5 / rung.settings.samples)  # bias falling as 1/n: error 0.5/n
+        if rung.settings.seed != 0 and rung.settings.samples == 64:
+            image = image.copy()
+            image[0, 0] = 20.0  # a firefly in every extra seed of the 64-sample rung
+        return image
+
+    for n in (16, 64, 256):
+        rung = acc.Rung(replace(base, samples=n), "samples", (FinalMode.SAMPLED,))
+        est.points.append(acc.Point(rung, n / 1000, 0.5 / n, 0.0, predicted_seconds=n / 100))
+    assert acc.recommend(est.points, target=0.01).index == 1  # 64 samples: 0.0078
+    rec = acc.verify_recommendation(est, render, target=0.01)
+    p64 = est.points[1]
+    assert p64.seeds == 4 and len(set(seen[:3])) == 3 and 0 not in seen[:3]
+    firefly = np.mean((np.where(np.arange(48) == 0, 20.0, 0.5 * (1 + 0.5 / 64)) - 0.5) ** 2)
+    expected = math.sqrt((1 * (0.5 / 64 * 0.5) ** 2 + 3 * firefly) / 4) / 0.5
+    assert p64.rmse == pytest.approx(expected, rel=1e-5)  # float32 images
+    # Now over the target: the 256-sample rung is recommended, and verified in turn.
+    assert (
+        rec.index == 2
+        and est.points[2].seeds == 4
+        and est.points[2].rmse == pytest.approx(0.5 / 256, rel=1e-5)
+    )
+    # Deterministic rungs are not re-rendered.
+    est2 = acc.Estimate(RenderSettings(), (8, 6), (16, 12), acc.reference_settings(base, 64))
+    est2.reference_image = ref
+    est2.points.append(acc.Point(acc.Rung(RenderSettings(), "lights_total"), 1, 0.1, 0.1, 1.0))
+    seen.clear()
+    acc.verify_recommendation(est2, render)
+    assert seen == [] and est2.points[0].seeds == 1
