@@ -26,7 +26,7 @@ from ..core.errors import BTFError
 from ..render.accuracy import run, settings_from_json, verify_recommendation
 from ..render.accuracy_report import error_plot, to_json
 from ..render.settings import RenderSettings
-from .accuracy_run import prepare
+from .accuracy_run import prepare, set_up
 from .addon import ENGINE_ID
 from .preferences import preferred_device
 
@@ -100,6 +100,8 @@ class Job:
 
     def _work(self) -> None:
         try:
+            self._progress(0.0, "opening the OpenCL device, loading the kernels")
+            set_up(self.estimate, self.renderer)
             run(
                 self.estimate,
                 self.rungs,
@@ -144,6 +146,7 @@ def start_job(context) -> Job:
         props.preview_size,
         preferred_device(),
         props.reference_samples,
+        setup=False,  # on the worker: a first kernel compile must not freeze the UI
     )
     job = Job(
         estimate,

@@ -50,24 +50,34 @@ def full_size(scene) -> tuple[int, int]:
 
 class LadderRenderer:
     """``renderer(rung, progress)`` → (h, w, 3) float32 Combined, or None when ``progress``
-    answered False (stopped part-way: the image is incomplete). ``setup_seconds``: context,
-    kernel (cached) and upload, measured here."""
+    answered False (stopped part-way: the image is incomplete). ``setup()`` opens the device,
+    builds (or loads) the kernels and uploads the scene; it may run on a worker thread (a first
+    kernel compile takes minutes on some drivers: never on Blender's main thread) and fills
+    ``setup_seconds`` and ``device_name``."""
 
     def __init__(self, scene: Scene, width: int, height: int, device_index: int | None = None):
+        self.scene, self.width, self.height = scene, width, height
+        self.device_index = device_index
+        self.renderer: CLRenderer | None = None
+        self.setup_seconds, self.device_name = 0.0, ""
+
+    def setup(self) -> None:
+        if self.renderer is not None:
+            return
         t0 = time.perf_counter()
         try:
-            ctx = create_context(device_index)
+            ctx = create_context(self.device_index)
         except OpenCLUnavailableError as exc:
             raise BTFError(
                 f"the quality estimate measures the OpenCL final render, and OpenCL is "
                 f"unavailable: {exc}"
             ) from None
-        self.scene, self.width, self.height = scene, width, height
-        self.renderer = CLRenderer(scene, width, height, ctx, analyse(scene))
+        self.renderer = CLRenderer(self.scene, self.width, self.height, ctx, analyse(self.scene))
         self.device_name = ctx.device_name
         self.setup_seconds = time.perf_counter() - t0
 
     def __call__(self, rung: Rung, progress: Callable[[float], bool]) -> np.ndarray | None:
+        self.setup()
         settings = rung.settings
         stopped = False
 
@@ -94,10 +104,12 @@ def prepare(
     device_index: int | None = None,
     reference_samples: int = 1024,
     reference_bounces: int = 8,
+    setup: bool = True,
 ) -> tuple[Estimate, list[Rung], LadderRenderer]:
     """On the main thread: the estimate's frame (the scene's settings and sizes), its rungs and
     the renderer (scene exported at the preview size). Raises BTFError for a scene without a
-    camera or with no knob to trade (the headlight)."""
+    camera or with no knob to trade (the headlight). ``setup=False`` leaves the device to
+    ``set_up(estimate, renderer)`` on a worker thread."""
     scene = depsgraph.scene
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to estimate from")
@@ -117,7 +129,15 @@ def prepare(
     estimate = Estimate(
         base, preview, full, reference_settings(base, reference_samples, reference_bounces)
     )
-    estimate.setup_seconds = export_seconds + renderer.setup_seconds
-    estimate.device = renderer.device_name
+    estimate.setup_seconds = export_seconds
     estimate.scene = scene.name
+    if setup:
+        set_up(estimate, renderer)
     return estimate, rungs, renderer
+
+
+def set_up(estimate: Estimate, renderer: LadderRenderer) -> None:
+    """The device part of the setup; its time joins the export's in ``setup_seconds``."""
+    renderer.setup()
+    estimate.setup_seconds += renderer.setup_seconds
+    estimate.device = renderer.device_name

@@ -177,8 +177,12 @@ def cmd_accuracy(args) -> int:
     chosen = estimate.points[rec["index"]]
     print(
         f"recommended: {describe_rung(chosen.rung)} ({rec['reason']}): relative RMSE "
-        f"{chosen.rmse:.4f}, 1-SSIM {chosen.ssim_loss:.4f}, predicted "
+        f"{chosen.rmse:.4f}{_bound(chosen.rmse_upper)}, 1-SSIM {chosen.ssim_loss:.4f}, predicted "
         f"{chosen.predicted_seconds:.2f} s at {fw}x{fh}; reference "
         f"{estimate.reference_seconds:.2f} s at {pw}x{ph}; report: {folder / 'report.md'}"
     )
     return 130 if estimate.interrupted else 0
+
+
+def _bound(upper: float) -> str:
+    return f" (90 % bound {upper:.4f})" if upper == upper else ""  # NaN: one image, no bound

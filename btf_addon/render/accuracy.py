@@ -366,6 +366,7 @@ class Point:
     ssim_loss: float  # 1 − SSIM of the displayed images
     predicted_seconds: float = math.nan  # full resolution, from the time model
     seeds: int = 1  # images the errors are pooled over (verify_recommendation)
+    rmse_upper: float = math.nan  # one-sided 90 % bound of the pooled rmse (seeds > 1)
 
 
 def pareto_front(points: Sequence[Point], metric: str = "rmse") -> list[int]:
@@ -585,7 +586,12 @@ def verify_recommendation(
             image = np.asarray(image, dtype=np.float32)[..., :3]
             mse.append(relative_rmse(image, ref) ** 2 * _rms(ref) ** 2)
             ssim.append(ssim_loss(image, ref))
-        point.rmse = math.sqrt(float(np.mean(mse))) / (_rms(ref) or 1.0)
+        scale = _rms(ref) or 1.0
+        point.rmse = math.sqrt(float(np.mean(mse))) / scale
+        # The mean of k per-image squared errors, plus 1.28 standard errors (one-sided 90 %
+        # under a normal approximation of that mean): a stated bound, not a guarantee.
+        upper = float(np.mean(mse)) + 1.2816 * float(np.std(mse, ddof=1)) / math.sqrt(k)
+        point.rmse_upper = math.sqrt(upper) / scale
         point.ssim_loss = float(np.mean(ssim))
         point.seeds = k
     return recommend(estimate.points, budget, target)

@@ -121,6 +121,7 @@ def to_json(
             "ssim_loss": _num(p.ssim_loss),
             "predicted_seconds": _num(p.predicted_seconds),
             "seeds": p.seeds,
+            "rmse_upper": _num(p.rmse_upper),
         }
     return out
 
@@ -284,7 +285,9 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
             f"1 − SSIM {_s(rec['ssim_loss'])}, predicted {_s(rec['predicted_seconds'])} s "
             f"at {fw}x{fh}" + ("" if rec["met"] else " (the request could not be met)") + ".",
             "",
-            f"Its errors are pooled over {rec['seeds']} image(s) of different seeds "
+            f"Upper bound of its relative RMSE (one-sided 90 % over the seeds): "
+            f"{_s(rec['rmse_upper'])}. Its errors are pooled over {rec['seeds']} image(s) of "
+            "different seeds "
             f"({rec['seeds']} × the preview's pixels): rare bright pixels (fireflies) carry much "
             "of a noisy render's squared error, and one small preview holds fewer of them than "
             "the full-size image will. Errors of the other rungs are from one preview each.",

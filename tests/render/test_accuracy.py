@@ -326,6 +326,7 @@ def test_verify_pools_the_recommendations_error_over_more_seeds(rng):
     firefly = np.mean((np.where(np.arange(48) == 0, 20.0, 0.5 * (1 + 0.5 / 64)) - 0.5) ** 2)
     expected = math.sqrt((1 * (0.5 / 64 * 0.5) ** 2 + 3 * firefly) / 4) / 0.5
     assert p64.rmse == pytest.approx(expected, rel=1e-5)  # float32 images
+    assert p64.rmse_upper > p64.rmse  # the seeds disagree: the bound is above the mean
     # Now over the target: the 256-sample rung is recommended, and verified in turn.
     assert (
         rec.index == 2
@@ -338,4 +339,4 @@ def test_verify_pools_the_recommendations_error_over_more_seeds(rng):
     est2.points.append(acc.Point(acc.Rung(RenderSettings(), "lights_total"), 1, 0.1, 0.1, 1.0))
     seen.clear()
     acc.verify_recommendation(est2, render)
-    assert seen == [] and est2.points[0].seeds == 1
+    assert seen == [] and est2.points[0].seeds == 1 and math.isnan(est2.points[0].rmse_upper)
