@@ -110,7 +110,7 @@ def render_plot(plot: Plot, width: int = 640, height: int = 400, scale: int = 1)
     for v, text in plot.hlines:
         if y_axis.shows(v):
             _dashed(img, left, py(v), right, py(v), BLACK)
-            _text(img, text, right - len(text) * char_w - 4, py(v) - char_h - 1, scale, BLACK)
+            _text(img, text, left + 4, py(v) - char_h - 1, scale, BLACK)  # clear of the legend
     for v, text in plot.vlines:
         if x_axis.shows(v):
             _dashed(img, px(v), top, px(v), bottom, BLACK)
