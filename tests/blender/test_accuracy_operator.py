@@ -80,3 +80,55 @@ def test_cancel_keeps_what_is_done_and_headlight_is_refused(bpy_module, fresh_sc
     except RuntimeError as exc:
         raised = str(exc)
     assert "headlight" in raised
+
+
+class RecordingLayout:
+    """Stands in for a panel's UILayout (none exists headless): records what draw() asks."""
+
+    def __init__(self, calls=None):
+        self.calls = [] if calls is None else calls
+        self.use_property_split = False
+
+    def __getattr__(self, name):
+        def record(*args, **kwargs):
+            self.calls.append((name, args, kwargs))
+            return RecordingLayout(self.calls)
+
+        return record
+
+
+def test_panel_draws_the_report_the_progress_and_the_buttons(bpy_module, fresh_scene, tmp_path):
+    from types import SimpleNamespace
+
+    bpy = bpy_module
+    scene = _small_scene(bpy, tmp_path)
+    module = extension_submodule("btf_addon.blender.accuracy_operator")
+    panel = module.BTF_PT_render_accuracy
+
+    def draw():
+        layout = RecordingLayout()
+        panel.draw(SimpleNamespace(layout=layout), SimpleNamespace(scene=scene))
+        return layout.calls
+
+    calls = draw()  # no report yet: the settings and the button only
+    assert ("operator", ("btf.estimate_quality",), {"icon": "TIME"}) in calls
+    assert not any(c[0] == "template_icon" for c in calls)
+    assert bpy.ops.btf.estimate_quality() == {"FINISHED"}
+    calls = draw()
+    icons = [c for c in calls if c[0] == "template_icon"]
+    assert len(icons) == 1 and icons[0][2]["icon_value"] == module.plot_preview(scene).icon_id
+    labels = [c[2].get("text", "") for c in calls if c[0] == "label"]
+    assert any(t.startswith("Recommended: ") for t in labels)
+    assert any(c[0] == "operator" and c[1] == ("btf.apply_recommended",) for c in calls)
+    # While a job runs: its progress and the cancel button instead of the estimate button.
+    job = SimpleNamespace(
+        fraction=0.25, text="samples=16", done=SimpleNamespace(is_set=lambda: False)
+    )
+    module._jobs[scene.as_pointer()] = job
+    try:
+        calls = draw()
+    finally:
+        module._jobs.clear()
+    assert any(c[0] == "progress" and c[2]["factor"] == 0.25 for c in calls)
+    assert any(c[0] == "operator" and c[1] == ("btf.estimate_quality_cancel",) for c in calls)
+    assert not any(c[0] == "operator" and c[1] == ("btf.estimate_quality",) for c in calls)
