@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import platform
 
+import bench_accuracy
 import bench_bridge
 import bench_decode
 import bench_envmap
@@ -28,6 +29,7 @@ if __name__ == "__main__":
         bench_final_render,
         bench_mapping,
         bench_wiimote,
+        bench_accuracy,  # last: it rewrites its section of docs/accuracy.md
     ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")
         print(module.main())

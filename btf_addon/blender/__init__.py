@@ -22,6 +22,7 @@ MODULES = (
     "mapping_panel",  # after ui: a child of BTF_PT_material
     "panels",  # Blender's own panels for this engine, by what it honours
     "file_handler",
+    "accuracy_operator",  # after ui: its panel is a child of BTF_PT_render_settings
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",

@@ -51,7 +51,14 @@ def raise_if_interrupted() -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import bridge_command, btf_commands, doctor, envmap_command, render_command
+    from . import (
+        accuracy_command,
+        bridge_command,
+        btf_commands,
+        doctor,
+        envmap_command,
+        render_command,
+    )
 
     parser = argparse.ArgumentParser(
         prog="python -m btf_addon", description="BTF Materials command-line tools"
@@ -72,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     envmap_command.add_parser(sub)
     render_command.add_parser(sub)
     bridge_command.add_parser(sub)
+    accuracy_command.add_parser(sub)
     return parser
 
 

@@ -1,0 +1,417 @@
+"""Estimate Quality vs Time: the accuracy report inside Blender (Render Properties > BTF >
+Quality vs Time).
+
+The operator exports the scene at the preview size on the main thread (bpy), then renders the
+ladder on a worker thread (bpy-free: blender/accuracy_run.py + render/accuracy.py) while a
+modal timer shows progress; Esc or the panel's Cancel stops it between launches, keeping the
+rungs done. Run from a script (``bpy.ops.btf.estimate_quality()``, no window), it runs to the
+end before returning. The result is stored on the scene as the report's JSON
+(``scene.btf_accuracy.report``, saved with the file); the panel draws its curve as an image
+preview made by the numpy plot raster (render/plot.py) and offers Apply Recommended, one undo
+step.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+
+import bpy
+import numpy as np
+from bpy.props import FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.types import Operator, Panel, PropertyGroup
+
+from ..core.errors import BTFError
+from ..render.accuracy import run, settings_from_json, verify_recommendation
+from ..render.accuracy_report import error_plot, to_json
+from ..render.settings import RenderSettings
+from .accuracy_run import prepare, set_up
+from .addon import ENGINE_ID
+from .preferences import preferred_device
+
+log = logging.getLogger(__name__)
+
+#: The panel's plot: square-ish and small enough to upload on every new report.
+PLOT_SIZE = (320, 240)
+
+
+class BTFAccuracySettings(PropertyGroup):
+    budget: FloatProperty(
+        name="Time Budget",
+        default=0.0,
+        min=0.0,
+        unit="TIME_ABSOLUTE",
+        description="Seconds one full-resolution render may take (0: no budget)",
+    )
+    target: FloatProperty(
+        name="Target Error",
+        default=0.02,
+        min=0.0,
+        max=1.0,
+        precision=3,
+        description="Relative RMSE against the reference to reach (0: none)",
+    )
+    preview_size: IntProperty(
+        name="Preview Size",
+        default=160,
+        min=8,
+        max=2048,
+        description="Longest side, in pixels, of the reduced renders the estimate measures",
+    )
+    reference_samples: IntProperty(
+        name="Reference Samples",
+        default=1024,
+        min=1,
+        max=65536,
+        description="Samples per pixel of the reference (the World sampled, 8 bounces)",
+    )
+    report: StringProperty(
+        name="Report",
+        default="",
+        options={"HIDDEN"},
+        description="The last estimate, as the CLI's report.json",
+    )
+
+    @classmethod
+    def register(cls) -> None:
+        bpy.types.Scene.btf_accuracy = PointerProperty(type=cls, name="BTF Quality vs Time")
+
+    @classmethod
+    def unregister(cls) -> None:
+        del bpy.types.Scene.btf_accuracy
+
+
+class Job:
+    """One estimate on a worker thread. The thread touches no bpy data: it reads and writes
+    only this object (progress, the estimate), which the modal timer copies into the UI."""
+
+    def __init__(self, estimate, rungs, renderer, budget, target):
+        self.estimate, self.rungs, self.renderer = estimate, rungs, renderer
+        self.budget, self.target = budget, target
+        self.cancel = threading.Event()
+        self.fraction, self.text = 0.0, "starting"
+        self.error: BaseException | None = None
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._work, name="btf-accuracy", daemon=True)
+
+    def _progress(self, fraction: float, text: str) -> None:
+        self.fraction, self.text = fraction, text
+
+    def _work(self) -> None:
+        try:
+            self._progress(0.0, "opening the OpenCL device, loading the kernels")
+            set_up(self.estimate, self.renderer)
+            run(
+                self.estimate,
+                self.rungs,
+                self.renderer,
+                on_progress=self._progress,
+                cancelled=self.cancel.is_set,
+            )
+            if not self.estimate.interrupted:
+                self._progress(1.0, "verifying the recommendation")
+                verify_recommendation(
+                    self.estimate,
+                    self.renderer,
+                    self.budget,
+                    self.target,
+                    cancelled=self.cancel.is_set,
+                )
+        except Exception as exc:  # shown by the operator on the main thread
+            log.exception("quality estimate failed")
+            self.error = exc
+        finally:
+            self.done.set()
+
+    def report_json(self) -> str:
+        return json.dumps(to_json(self.estimate, self.budget, self.target), allow_nan=False)
+
+
+#: The running job per scene (by its session pointer), so the panel can show and cancel it.
+_jobs: dict[int, Job] = {}
+
+
+def running_job(scene) -> Job | None:
+    job = _jobs.get(scene.as_pointer())
+    return job if job is not None and not job.done.is_set() else None
+
+
+def start_job(context) -> Job:
+    """Export and prepare on this (main) thread, then start the worker."""
+    scene = context.scene
+    props = scene.btf_accuracy
+    estimate, rungs, renderer = prepare(
+        context.evaluated_depsgraph_get(),
+        props.preview_size,
+        preferred_device(),
+        props.reference_samples,
+        setup=False,  # on the worker: a first kernel compile must not freeze the UI
+    )
+    job = Job(
+        estimate,
+        rungs,
+        renderer,
+        props.budget if props.budget > 0 else None,
+        props.target if props.target > 0 else None,
+    )
+    _jobs[scene.as_pointer()] = job
+    job.thread.start()
+    return job
+
+
+def finish_job(operator, context, job: Job) -> set[str]:
+    """On the main thread after the worker ended: store the report, say what happened."""
+    _jobs.pop(context.scene.as_pointer(), None)
+    if job.error is not None:
+        operator.report({"ERROR"}, f"Quality estimate failed: {job.error}")
+        return {"CANCELLED"}
+    context.scene.btf_accuracy.report = job.report_json()
+    est = job.estimate
+    data = json.loads(context.scene.btf_accuracy.report)
+    rec = data["recommendation"]
+    done = f"{len(est.points)} of {len(job.rungs)} settings measured"
+    if rec is None:
+        operator.report({"WARNING"}, f"Quality estimate cancelled: {done}")
+        return {"CANCELLED"}
+    operator.report(
+        {"INFO"},
+        f"{done}: recommended {rec['describe']}, predicted {rec['predicted_seconds']:.2f} s, "
+        f"error {rec['rmse']:.4f}" + (" (cancelled early)" if est.interrupted else ""),
+    )
+    return {"FINISHED"}
+
+
+def _redraw_properties(context) -> None:
+    for window in getattr(context.window_manager, "windows", ()):
+        for area in window.screen.areas:
+            if area.type == "PROPERTIES":
+                area.tag_redraw()
+
+
+class BTF_OT_estimate_quality(Operator):
+    """Measure error against render time for this scene's quality settings (virtual lights,
+    samples, bounces) at a reduced size, and recommend settings for a time budget or a
+    target error"""
+
+    bl_idname = "btf.estimate_quality"
+    bl_label = "Estimate Quality vs Time"
+    bl_options = {"REGISTER"}  # stores a report, changes no render setting: no undo step
+
+    _timer = None
+    _job: Job | None = None
+
+    @classmethod
+    def poll(cls, context) -> bool:
+        scene = context.scene
+        return scene is not None and scene.render.engine == ENGINE_ID and not running_job(scene)
+
+    def _start(self, context) -> Job | None:
+        try:
+            return start_job(context)
+        except BTFError as exc:
+            self.report({"ERROR"}, str(exc))
+            return None
+
+    def execute(self, context) -> set[str]:
+        """From a script: the whole estimate before returning."""
+        job = self._start(context)
+        if job is None:
+            return {"CANCELLED"}
+        job.done.wait()
+        job.thread.join()
+        return finish_job(self, context, job)
+
+    def invoke(self, context, _event) -> set[str]:
+        if context.window is None:
+            return self.execute(context)
+        job = self._start(context)
+        if job is None:
+            return {"CANCELLED"}
+        self._job = job
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0, 100)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event) -> set[str]:
+        job = self._job
+        if event.type == "ESC":
+            job.cancel.set()
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        wm.progress_update(int(job.fraction * 100))
+        context.workspace.status_text_set(f"Quality vs Time: {job.fraction:.0%} {job.text}")
+        _redraw_properties(context)
+        if not job.done.is_set():
+            return {"PASS_THROUGH"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        result = finish_job(self, context, job)
+        _redraw_properties(context)
+        return result
+
+
+class BTF_OT_estimate_quality_cancel(Operator):
+    """Stop the running estimate after the current launch, keeping the settings measured"""
+
+    bl_idname = "btf.estimate_quality_cancel"
+    bl_label = "Cancel Estimate"
+    bl_options = {"INTERNAL"}
+
+    def execute(self, context) -> set[str]:
+        job = running_job(context.scene)
+        if job is not None:
+            job.cancel.set()
+        return {"FINISHED"}
+
+
+def recommended_settings(scene) -> RenderSettings | None:
+    """The scene's settings with the stored recommendation's knobs applied (None: no report
+    or no recommendation)."""
+    text = scene.btf_accuracy.report
+    if not text:
+        return None
+    rec = json.loads(text).get("recommendation")
+    if rec is None:
+        return None
+    current = RenderSettings.from_properties(scene.btf_render)
+    return settings_from_json(rec["knobs"], current)
+
+
+class BTF_OT_apply_recommended(Operator):
+    """Set the render settings to the recommended ones (one undo step)"""
+
+    bl_idname = "btf.apply_recommended"
+    bl_label = "Apply Recommended"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context) -> bool:
+        return context.scene is not None and recommended_settings(context.scene) is not None
+
+    def execute(self, context) -> set[str]:
+        settings = recommended_settings(context.scene)
+        settings.to_properties(context.scene.btf_render)
+        rec = json.loads(context.scene.btf_accuracy.report)["recommendation"]
+        self.report({"INFO"}, f"Applied {rec['describe']}")
+        return {"FINISHED"}
+
+
+# ---------------------------------------------------------------------------------------------
+# The panel's plot: an image preview (an icon of any size) filled with the plot raster.
+
+_previews = None
+_preview_key: dict[str, str] = {}
+
+
+def plot_preview(scene):
+    """The ImagePreview holding the plot of ``scene``'s stored report (redrawn when the report
+    changes), or None without a report."""
+    text = scene.btf_accuracy.report
+    if not text or _previews is None:
+        return None
+    name = f"plot-{scene.as_pointer()}"
+    preview = _previews.get(name) or _previews.new(name)
+    if _preview_key.get(name) != text:
+        data = json.loads(text)
+        if not data["points"]:
+            return None
+        rgb = error_plot(data, "rmse", PLOT_SIZE)
+        rgba = np.concatenate([rgb, np.full((*rgb.shape[:2], 1), 255, np.uint8)], axis=-1)
+        preview.image_size = (rgba.shape[1], rgba.shape[0])
+        # Previews store rows bottom first, as float RGBA in [0, 1].
+        preview.image_pixels_float = (rgba[::-1].astype(np.float32) / 255.0).ravel()
+        _preview_key[name] = text
+    return preview
+
+
+class BTF_PT_render_accuracy(Panel):
+    bl_label = "Quality vs Time"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "BTF_PT_render_settings"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context) -> bool:
+        return context.engine == ENGINE_ID
+
+    def draw(self, context) -> None:
+        scene = context.scene
+        props = scene.btf_accuracy
+        layout = self.layout
+        layout.use_property_split = True
+        col = layout.column()
+        col.prop(props, "budget")
+        col.prop(props, "target")
+        col.prop(props, "preview_size")
+        col.prop(props, "reference_samples")
+        job = running_job(scene)
+        if job is not None:
+            row = layout.row()
+            text = f"{job.fraction:.0%} {job.text}"
+            if hasattr(row, "progress"):  # Blender 4.0+
+                row.progress(factor=job.fraction, type="BAR", text=text)
+            else:
+                row.label(text=text)
+            row.operator("btf.estimate_quality_cancel", text="", icon="CANCEL")
+            return
+        layout.operator("btf.estimate_quality", icon="TIME")
+        if not props.report:
+            return
+        data = json.loads(props.report)
+        preview = plot_preview(scene)
+        if preview is not None:
+            layout.template_icon(icon_value=preview.icon_id, scale=12.0)
+        rec = data.get("recommendation")
+        box = layout.box()
+        if data.get("interrupted"):
+            box.label(text=f"Cancelled: {data['rungs_done']} of {data['rungs_total']}", icon="INFO")
+        if rec is None:
+            box.label(text="No recommendation yet")
+            return
+        fw, fh = data["full_size"]
+        box.label(text=f"Recommended: {rec['describe']}")
+        box.label(text=f"Error {rec['rmse']:.4f} (1-SSIM {rec['ssim_loss']:.4f})")
+        box.label(text=f"Predicted {rec['predicted_seconds']:.2f} s at {fw}x{fh}")
+        if not rec["met"]:
+            box.label(text=rec["reason"], icon="ERROR")
+        box.operator("btf.apply_recommended", icon="CHECKMARK")
+
+
+classes = (
+    BTFAccuracySettings,
+    BTF_OT_estimate_quality,
+    BTF_OT_estimate_quality_cancel,
+    BTF_OT_apply_recommended,
+    BTF_PT_render_accuracy,
+)
+_register, _unregister = bpy.utils.register_classes_factory(classes)
+
+
+def register() -> None:
+    global _previews
+    import bpy.utils.previews
+
+    _register()
+    _previews = bpy.utils.previews.new()
+
+
+def unregister() -> None:
+    global _previews
+    import bpy.utils.previews
+
+    for job in list(_jobs.values()):  # a worker must not outlive the add-on's classes
+        job.cancel.set()
+        job.thread.join()
+    _jobs.clear()
+    if _previews is not None:
+        bpy.utils.previews.remove(_previews)
+        _previews = None
+    _preview_key.clear()
+    _unregister()

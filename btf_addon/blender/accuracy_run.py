@@ -1,0 +1,143 @@
+"""The accuracy report's renders, for the CLI's ``accuracy`` command and the Estimate Quality
+vs Time operator alike.
+
+The scene is exported once, at a reduced size (the preview), on the calling (main) thread;
+after that everything is bpy-free and may run on a worker thread: each rung is rendered by the
+final render's own OpenCL renderer (cl/renderer.py) exactly as F12 renders it
+(blender/final_render.py: the frame's virtual lights from render/lighting.py, ``render_direct``
+for Virtual Lights; ``render_direct`` with one light for the passes then ``render_sampled`` for
+Sampled). No GLSL fallback: without OpenCL there is no F12 to measure, so it is an error.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from ..cl.context import OpenCLUnavailableError, create_context
+from ..cl.renderer import CLRenderer
+from ..core.errors import BTFError
+from ..render.accuracy import Estimate, Rung, ladder, reference_settings
+from ..render.lighting import frame_lights
+from ..render.settings import RenderSettings
+from ..scene.analysis import analyse
+from ..scene.scene import Scene
+from .export import export_scene
+
+#: The preview's longest side in pixels: small enough that a ladder of ~13 rungs plus the
+#: reference takes seconds to a minute on a CPU, large enough for the error maps to show where.
+PREVIEW_LONGEST = 160
+
+
+def preview_size(full: tuple[int, int], longest: int = PREVIEW_LONGEST) -> tuple[int, int]:
+    """``full`` (w, h) scaled so its longest side is ``longest`` (never enlarged), aspect kept,
+    each side at least 1."""
+    w, h = full
+    k = min(1.0, longest / max(w, h))
+    return max(1, round(w * k)), max(1, round(h * k))
+
+
+def full_size(scene) -> tuple[int, int]:
+    """The scene's render size in pixels, as F12 computes it."""
+    pct = scene.render.resolution_percentage / 100
+    return (
+        max(1, int(scene.render.resolution_x * pct)),
+        max(1, int(scene.render.resolution_y * pct)),
+    )
+
+
+class LadderRenderer:
+    """``renderer(rung, progress)`` → (h, w, 3) float32 Combined, or None when ``progress``
+    answered False (stopped part-way: the image is incomplete). ``setup()`` opens the device,
+    builds (or loads) the kernels and uploads the scene; it may run on a worker thread (a first
+    kernel compile takes minutes on some drivers: never on Blender's main thread) and fills
+    ``setup_seconds`` and ``device_name``."""
+
+    def __init__(self, scene: Scene, width: int, height: int, device_index: int | None = None):
+        self.scene, self.width, self.height = scene, width, height
+        self.device_index = device_index
+        self.renderer: CLRenderer | None = None
+        self.setup_seconds, self.device_name = 0.0, ""
+
+    def setup(self) -> None:
+        if self.renderer is not None:
+            return
+        t0 = time.perf_counter()
+        try:
+            ctx = create_context(self.device_index)
+        except OpenCLUnavailableError as exc:
+            raise BTFError(
+                f"the quality estimate measures the OpenCL final render, and OpenCL is "
+                f"unavailable: {exc}"
+            ) from None
+        self.renderer = CLRenderer(self.scene, self.width, self.height, ctx, analyse(self.scene))
+        self.device_name = ctx.device_name
+        self.setup_seconds = time.perf_counter() - t0
+
+    def __call__(self, rung: Rung, progress: Callable[[float], bool]) -> np.ndarray | None:
+        self.setup()
+        settings = rung.settings
+        stopped = False
+
+        def step(fraction: float) -> bool:
+            nonlocal stopped
+            stopped = stopped or not progress(fraction)
+            return not stopped
+
+        cam = self.scene.camera
+        lights = frame_lights(settings, self.scene, cam.world_from_camera[:3, 2])
+        if settings.sampled:  # as F12: the passes from one light, then the paths
+            self.renderer.render_direct(lights.prefix(1))
+            image = self.renderer.render_sampled(
+                settings.samples, settings.seed, step, max_bounces=settings.max_bounces
+            )
+        else:
+            image = self.renderer.render_direct(lights, step).combined
+        return None if stopped else np.asarray(image[..., :3], dtype=np.float32)
+
+
+def prepare(
+    depsgraph,
+    longest: int = PREVIEW_LONGEST,
+    device_index: int | None = None,
+    reference_samples: int = 1024,
+    reference_bounces: int = 8,
+    setup: bool = True,
+) -> tuple[Estimate, list[Rung], LadderRenderer]:
+    """On the main thread: the estimate's frame (the scene's settings and sizes), its rungs and
+    the renderer (scene exported at the preview size). Raises BTFError for a scene without a
+    camera or with no knob to trade (the headlight). ``setup=False`` leaves the device to
+    ``set_up(estimate, renderer)`` on a worker thread."""
+    scene = depsgraph.scene
+    if scene.camera is None:
+        raise BTFError(f"the scene {scene.name!r} has no camera to estimate from")
+    base = RenderSettings.from_properties(scene.btf_render)
+    rungs = ladder(base)
+    if not rungs:
+        raise BTFError(
+            "no quality knob applies: the scene is lit by the headlight (one deterministic "
+            "light); set Lighting to Environment"
+        )
+    full = full_size(scene)
+    preview = preview_size(full, longest)
+    t0 = time.perf_counter()
+    exported = export_scene(depsgraph, *preview)
+    export_seconds = time.perf_counter() - t0
+    renderer = LadderRenderer(exported, *preview, device_index)
+    estimate = Estimate(
+        base, preview, full, reference_settings(base, reference_samples, reference_bounces)
+    )
+    estimate.setup_seconds = export_seconds
+    estimate.scene = scene.name
+    if setup:
+        set_up(estimate, renderer)
+    return estimate, rungs, renderer
+
+
+def set_up(estimate: Estimate, renderer: LadderRenderer) -> None:
+    """The device part of the setup; its time joins the export's in ``setup_seconds``."""
+    renderer.setup()
+    estimate.setup_seconds += renderer.setup_seconds
+    estimate.device = renderer.device_name

@@ -1,0 +1,188 @@
+"""``accuracy``: what accuracy costs in time for one .blend — the report command.
+
+The file is opened as ``render --blend`` opens it (its scene's own render settings are the
+starting point), the scene is exported once at a reduced size, and every quality knob that
+applies is swept by the final render's own OpenCL renderer (blender/accuracy_run.py), against a
+reference rendered once at high quality. Ctrl-C stops after writing what is done.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from ..core.errors import BTFError
+from ..render.accuracy import describe_rung, run, verify_recommendation
+from ..render.accuracy_report import to_json, write_json, write_report
+
+DESCRIPTION = """\
+Estimate what accuracy costs in time for a .blend's camera view: every quality knob that
+applies (final mode; Virtual Lights: N; Sampled: samples, bounces) is rendered at a reduced
+size (--size: the longest side in pixels) through the F12 OpenCL renderer, and scored against
+a reference rendered once with the World sampled at --reference-samples samples and
+--reference-bounces bounces (its own time is in the report).
+
+Errors: relative RMSE (linear radiance) and 1 - SSIM (structure of the displayed sRGB
+luminance). Times are predicted for the scene's own resolution from the time per pixel·light /
+pixel·sample measured here, plus the measured setup (export, device, upload).
+
+Output (REPORT_DIR, default ./accuracy_report): report.json (rewritten after every rung, so an
+interrupted run keeps what it did), report.md and report.html with error-vs-time plots (PNG),
+the Pareto front, heat maps of where the error sits, and the recommended settings: the most
+accurate within --budget seconds, the fastest reaching --target relative RMSE, or both
+(default: --target 0.02).
+"""
+
+
+def add_parser(sub) -> None:
+    import argparse
+
+    p = sub.add_parser(
+        "accuracy",
+        help="error against time for a .blend's quality settings, with a recommendation",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--blend", type=Path, required=True, help="the .blend (its active scene)")
+    p.add_argument("-o", "--output", type=Path, default=Path("accuracy_report"), metavar="DIR")
+    p.add_argument(
+        "--budget",
+        type=_positive(float),
+        metavar="SECONDS",
+        help="time budget of one full-resolution render",
+    )
+    p.add_argument(
+        "--target",
+        type=_positive(float),
+        metavar="RMSE",
+        help="target relative RMSE (default 0.02 without --budget)",
+    )
+    p.add_argument(
+        "--size",
+        type=_positive(int),
+        default=160,
+        metavar="PIXELS",
+        help="longest side of the reduced render (default 160)",
+    )
+    p.add_argument("--reference-samples", type=_positive(int), default=1024, metavar="N")
+    p.add_argument("--reference-bounces", type=_non_negative_int, default=8, metavar="N")
+    p.add_argument("--device", type=int, metavar="N", help="OpenCL device index (`doctor`)")
+    p.set_defaults(func=cmd_accuracy)
+
+
+def _positive(kind):
+    def parse(text: str):
+        import argparse
+
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+        return value
+
+    return parse
+
+
+def _non_negative_int(text: str) -> int:
+    import argparse
+
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"must be an integer ≥ 0, got {text!r}")
+    return int(text)
+
+
+class ProgressBar:
+    """One line on stderr, redrawn: [#####.....] 42 % reference (12.3 s)."""
+
+    def __init__(self, stream=None, width: int = 30):
+        self.stream, self.width, self.t0 = stream or sys.stderr, width, time.perf_counter()
+        self.last = ""
+
+    def __call__(self, fraction: float, text: str) -> None:
+        if not self.stream.isatty():  # a log: one line per step, not a redrawn bar
+            if text != self.last:
+                self.stream.write(f"{fraction:4.0%} {text}\n")
+                self.last = text
+            return
+        filled = round(fraction * self.width)
+        line = (
+            f"[{'#' * filled}{'.' * (self.width - filled)}] {fraction:4.0%} {text[:48]:<48} "
+            f"({time.perf_counter() - self.t0:.1f} s)"
+        )
+        if line != self.last:
+            self.stream.write("\r" + line)
+            self.stream.flush()
+            self.last = line
+
+    def close(self) -> None:
+        if self.stream.isatty():
+            self.stream.write("\n")
+
+
+def cmd_accuracy(args) -> int:
+    if not args.blend.is_file():
+        raise BTFError(f"{args.blend}: no such .blend file")
+    target = args.target if args.target is not None or args.budget is not None else 0.02
+    try:
+        import bpy
+    except ImportError:
+        raise BTFError("the estimate needs Blender's bpy module (pip install bpy==5.0.1)") from None
+    from ..blender.accuracy_run import prepare
+    from .render_command import _engine_registered
+
+    folder = args.output.resolve()
+    with _engine_registered(bpy):
+        bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+        estimate, rungs, renderer = prepare(
+            bpy.context.evaluated_depsgraph_get(),
+            args.size,
+            args.device,
+            args.reference_samples,
+            args.reference_bounces,
+        )
+    pw, ph = estimate.preview_size
+    fw, fh = estimate.full_size
+    print(
+        f"{len(rungs)} rungs + reference at {pw}x{ph} (full {fw}x{fh}) on {estimate.device}; "
+        f"report -> {folder}",
+        file=sys.stderr,
+    )
+    bar = ProgressBar()
+    try:
+        run(
+            estimate,
+            rungs,
+            renderer,
+            on_progress=bar,
+            on_point=lambda e: write_json(folder, to_json(e, args.budget, target)),
+        )
+        if not estimate.interrupted:
+            bar(1.0, "verifying the recommendation with more seeds")
+            verify_recommendation(estimate, renderer, args.budget, target)
+    except KeyboardInterrupt:
+        estimate.interrupted = True
+    finally:
+        bar.close()
+        write_report(folder, estimate, args.budget, target)
+    data = to_json(estimate, args.budget, target)
+    rec = data["recommendation"]
+    if estimate.interrupted:
+        print(f"interrupted: {len(estimate.points)} of {len(rungs)} rungs kept", file=sys.stderr)
+    if rec is None:
+        print(f"no rung finished; report: {folder / 'report.md'}")
+        return 130 if estimate.interrupted else 1
+    chosen = estimate.points[rec["index"]]
+    print(
+        f"recommended: {describe_rung(chosen.rung)} ({rec['reason']}): relative RMSE "
+        f"{chosen.rmse:.4f}{_bound(chosen.rmse_upper)}, 1-SSIM {chosen.ssim_loss:.4f}, predicted "
+        f"{chosen.predicted_seconds:.2f} s at {fw}x{fh}; reference "
+        f"{estimate.reference_seconds:.2f} s at {pw}x{ph}; report: {folder / 'report.md'}"
+    )
+    return 130 if estimate.interrupted else 0
+
+
+def _bound(upper: float) -> str:
+    return f" (90 % bound {upper:.4f})" if upper == upper else ""  # NaN: one image, no bound
