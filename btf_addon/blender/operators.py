@@ -28,6 +28,13 @@ class BTF_OT_check_system(Operator):
                 self.report({"WARNING"}, f"{probe.name}: missing ({error}). {probe.hint}")
             else:
                 self.report({"INFO"}, f"{probe.name}: ok {json.dumps(facts)[:120]}")
+                # The cut above would hide these: each unwritable cache folder on its own line.
+                for folder, why in facts.get("unwritable_cache_folders", {}).items():
+                    self.report(
+                        {"WARNING"},
+                        f"{probe.name}: cache folder {folder} cannot be written ({why}); "
+                        "a temporary folder is used",
+                    )
         return {"FINISHED"}
 
 

@@ -30,7 +30,11 @@ def create_context(device_index: int | None = None) -> CLContext:
             "pip install pocl-binary-distribution"
         ) from None
     if not infos:
-        raise OpenCLUnavailableError("OpenCL is installed but no device is available")
+        from . import programs  # an unwritable cache folder is the usual cause: name it
+
+        raise OpenCLUnavailableError(
+            f"OpenCL is installed but no device is available{programs.cache_diagnosis()}"
+        )
     index = best_device_index(infos) if device_index is None else device_index
     if not 0 <= index < len(infos):
         raise OpenCLUnavailableError(

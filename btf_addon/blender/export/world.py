@@ -36,7 +36,10 @@ def image_pixels(image) -> np.ndarray:
     """A Blender image → (H, W, 3) float32 scene-linear, row 0 at the top."""
     w, h = image.size
     if w == 0 or h == 0:
-        raise ValueError(f"image {image.name!r} has no pixels (missing file?)")
+        import bpy  # only here: the path a farm is missing, not the datablock's name
+
+        path = bpy.path.abspath(image.filepath, library=image.library) or "(no file path)"
+        raise ValueError(f"World image {image.name!r}: {path} is missing or unreadable")
     channels = image.channels
     buf = np.empty(w * h * channels, dtype=np.float32)
     image.pixels.foreach_get(buf)
