@@ -177,7 +177,9 @@ class BTF_OT_import_material(Operator, ImportHelper):
         target = bpy.data.materials.get(self.target_material) if self.target_material else None
         if target is not None:
             fill_material(target, self._source_path(source), job.btf)
-            users = [o for o in bpy.data.objects if target in [m.material for m in o.material_slots]]
+            users = [
+                o for o in bpy.data.objects if any(m.material == target for m in o.material_slots)
+            ]
             place_on(target, job.btf, users, self.texel_size_mm)
             self.report({"INFO"}, f"material {target.name!r} now renders {source.name}")
             return {"FINISHED"}
