@@ -83,8 +83,11 @@ def add_parsers(sub) -> None:
     p.set_defaults(func=cmd_convert)
 
 
-def _container_format(path: Path) -> str:
-    return "btfbase-mlvq-text" if path.is_dir() else "btfm-container-v1"
+def _container_format(path: Path, btf) -> str:
+    form = btf.meta.extra.get("btfbase_form")
+    if form:  # a BTFbase folder or binary.btf: which form was read
+        return f"btfbase-mlvq-{form}"
+    return btf.meta.extra.get("file_format", "btfm-container-v1")
 
 
 def cmd_info(args) -> int:
@@ -94,7 +97,7 @@ def cmd_info(args) -> int:
     on_disk = bytes_on_disk(path, btf)
     info = {
         "path": str(path),
-        "format": _container_format(path),
+        "format": _container_format(path, btf),
         "codec": meta.codec,
         "name": meta.name,
         "spatial_size": [meta.width, meta.height],
@@ -108,6 +111,8 @@ def cmd_info(args) -> int:
         "raw_bytes": meta.raw_bytes,
         "compression_ratio": (meta.raw_bytes / on_disk) if meta.raw_bytes else None,
     }
+    if "text_tables_error" in meta.extra:
+        info["text_tables_error"] = meta.extra["text_tables_error"]
     report = path / "quantreport.txt" if path.is_dir() else None
     if report and report.is_file():
         m = re.search(r"compressed quantized = (\d+)\s+ratio = ([\d.]+)", report.read_text())

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from . import btfbase_binary
 from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from .dense import DenseBTF
 from .errors import BTFFormatError, UnsupportedBTFError
@@ -34,16 +35,45 @@ def load_btf(path: str | Path) -> BTF:
 
     path = Path(path)
     if path.is_dir():
-        return MLVQBTF.from_directory(path)
+        return load_btfbase_directory(path)
     if not path.exists():
         raise BTFFormatError(f"{path}: no such file or directory")
+    if btfbase_binary.is_binary_btf(path):
+        return btfbase_binary.load_binary(path)
     return read_container(path)
+
+
+def load_btfbase_directory(directory: Path) -> MLVQBTF:
+    """A BTFbase folder: the text tables when all are there and read, else ``binary.btf``.
+
+    The text tables are exact; ``binary.btf`` is their 8-bit form (docs/formats.md), so it is
+    the fallback. ``meta.extra['btfbase_form']`` says which was used (``info`` prints it).
+    """
+    from . import btfbase_files
+
+    binary = directory / "binary.btf"
+    if btfbase_files.text_tables_complete(directory):
+        try:
+            btf = MLVQBTF.from_directory(directory)
+        except BTFFormatError as exc:
+            if not binary.is_file():
+                raise
+            btf = btfbase_binary.load_binary(binary)
+            btf.meta.extra["text_tables_error"] = str(exc)
+            return btf
+        btf.meta.extra["btfbase_form"] = "text"
+        return btf
+    if binary.is_file():
+        return btfbase_binary.load_binary(binary)
+    return MLVQBTF.from_directory(directory)  # raises the message naming what is missing
 
 
 def bytes_on_disk(path: str | Path, btf: BTF) -> int:
     from . import btfbase_files
 
     path = Path(path)
+    if path.is_dir() and btf.meta.extra.get("btfbase_form") == "binary":
+        return (path / "binary.btf").stat().st_size
     if path.is_dir():
         return sum(
             f.stat().st_size for f in btfbase_files.files_of(path, btf.meta.name) if f.exists()
