@@ -11,6 +11,7 @@ from .errors import BTFFormatError, UnsupportedBTFError
 from .microgeometry import MicrogeometryBTF
 from .mlvq import MLVQBTF
 from .model import BTF
+from .svd import SVDBTF
 
 CODECS: dict[str, type] = {
     "mlvq": MLVQBTF,
@@ -19,6 +20,7 @@ CODECS: dict[str, type] = {
     "ggx": GGXBTF,
     "principled": PrincipledBTF,
     "microgeometry": MicrogeometryBTF,
+    "svd": SVDBTF,
 }
 
 
