@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import btfbase_binary
+from . import btfbase_binary, ubo2014
 from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from .dense import DenseBTF
 from .errors import BTFFormatError, UnsupportedBTFError
@@ -42,6 +42,8 @@ def load_btf(path: str | Path) -> BTF:
         raise BTFFormatError(f"{path}: no such file or directory")
     if btfbase_binary.is_binary_btf(path):
         return btfbase_binary.load_binary(path)
+    if ubo2014.is_ubo2014(path):
+        return ubo2014.load_ubo2014(path)
     return read_container(path)
 
 
