@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import btfbase_binary, ubo2014
+from . import btfbase_binary, image_sets, ubo2014
 from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from .dense import DenseBTF
 from .errors import BTFFormatError, UnsupportedBTFError
@@ -32,10 +32,14 @@ def codec_class(name: str) -> type:
 
 
 def load_btf(path: str | Path) -> BTF:
-    """A BTFbase material directory or a ``.btfm`` container file."""
+    """A BTFbase material folder (text tables or ``binary.btf``), a ``.btfm`` container, a
+    UBO2014 DFMF ``.btf``, a BTFbase ``binary.btf``, or a UBO2003/ATRIUM image set (zip or
+    folder, read at full resolution: ``image_sets.load_image_set`` takes a texel count)."""
     from .container import read_container
 
     path = Path(path)
+    if path.is_dir() and image_sets.is_image_set(path) and not _is_btfbase(path):
+        return image_sets.load_image_set(path)
     if path.is_dir():
         return load_btfbase_directory(path)
     if not path.exists():
@@ -44,7 +48,13 @@ def load_btf(path: str | Path) -> BTF:
         return btfbase_binary.load_binary(path)
     if ubo2014.is_ubo2014(path):
         return ubo2014.load_ubo2014(path)
+    if path.suffix.lower() == ".zip":
+        return image_sets.load_image_set(path)
     return read_container(path)
+
+
+def _is_btfbase(directory: Path) -> bool:
+    return (directory / "all_materialInfo.txt").is_file() or (directory / "binary.btf").is_file()
 
 
 def load_btfbase_directory(directory: Path) -> MLVQBTF:

@@ -14,9 +14,10 @@ Layout (little endian; docs/formats.md has the table):
   K, ``u32`` rows, ``u32`` columns, then S[K], U[rows × K], S·V[columns × K] (row-major).
 
 Rows are direction pairs, view-major (row = view·nL + light); columns are texels, x fastest
-(btflib reshapes ``U·SVᵀ`` to (nL, nV, width, height) column-major). Directions must form ring
-grids (rings of equal θ, azimuths k·360°/n from 0): the rows are reordered into core/grid.py's
-ring order for the svd codec (core/svd.py).
+(btflib reshapes ``U·SVᵀ`` to (nL, nV, width, height) column-major), y from the image's top
+(``load_ubo2014`` flips it: texel row 0 is v = 0 here, as for every codec). Directions must
+form ring grids (rings of equal θ, azimuths k·360°/n from 0): the rows are reordered into
+core/grid.py's ring order for the svd codec (core/svd.py).
 """
 
 from __future__ import annotations
@@ -317,7 +318,9 @@ def load_ubo2014(path: str | Path) -> SVDBTF:
         cosine_in_data=meta.cosine_in_data,
         tile_size_mm=tile,
     )
-    btf = SVDBTF(params, [a[rows] for a in u], sv)
+    # File texel x + width·y counts rows from the image's top; ours from v = 0 (the bottom).
+    flipped = [a.reshape(meta.height, meta.width, -1)[::-1].reshape(len(a), -1) for a in sv]
+    btf = SVDBTF(params, [a[rows] for a in u], flipped)
     btf.meta.extra["file_format"] = "ubo2014-dfmf"
     btf.meta.extra["scalar_bytes"] = meta.scalar_sizes
     btf.meta.extra["rotations"] = len(meta.rotations)

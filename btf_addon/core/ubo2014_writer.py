@@ -69,7 +69,9 @@ def dfmf_bytes(btf: SVDBTF, scalar_size: int = 2) -> bytes:
     out.append(np.asarray(p.colour_mean, "<f4").tobytes())
     out.append(np.asarray(p.pca_matrix, "<f4").tobytes())
     for c in range(3):
-        u, sv = btf.u[c], btf.sv[c]
+        u = btf.u[c]
+        # Ours: texel row 0 is v = 0 (the bottom); the file's rows start at the image's top.
+        sv = btf.sv[c].reshape(p.height, p.width, -1)[::-1].reshape(p.width * p.height, -1)
         if scalar_size == 2 and max(np.abs(u).max(), np.abs(sv).max()) > 65504:
             raise BTFError(f"channel {c}: factors exceed the half-float range; write floats")
         out.append(struct.pack("<BIII", scalar_size, u.shape[1], u.shape[0], sv.shape[0]))

@@ -179,3 +179,15 @@ def test_non_ring_sampling_is_refused_clearly(tmp_path, synthetic):
     blob[pos : pos + 4] = struct.pack("<f", np.radians(view_phi[2] + 7.0))
     with pytest.raises(UnsupportedBTFError, match="ring-grid"):
         load_ubo2014(_write(tmp_path, bytes(blob)))
+
+
+def test_file_rows_start_at_the_image_top(tmp_path, synthetic):
+    """btflib's texel index x + width·y counts y from the image's top; ours from v = 0."""
+    src, data = synthetic
+    svd, _ = factorise(data, src.view_grid, src.light_grid, ranks=(2, 1, 1))
+    path = tmp_path / "rows.btf"
+    write_ubo2014(path, svd, scalar_size=4)
+    _, _, raw_sv = read_ubo2014(path)
+    w = svd.p.width
+    top_row_ours = svd.sv[0].reshape(svd.p.height, w, -1)[-1]
+    np.testing.assert_array_equal(raw_sv[0][:w], top_row_ours)
