@@ -53,12 +53,14 @@ class LoadJob:
 
 
 def btf_source(filepath: str) -> Path:
-    """A .btfm file is the source itself; any file inside a BTFbase material folder (its
-    tables are text files) stands for the folder."""
+    """A .btfm, UBO2014 .btf or image-set .zip is the source itself; any other file inside a
+    material folder (BTFbase tables or binary.btf, an image set's images) stands for the folder."""
     path = Path(filepath)
-    if path.is_dir() or path.suffix.lower() == ".btfm":
+    if path.is_dir() or path.suffix.lower() in (".btfm", ".zip"):
         return path
-    return path.parent
+    if path.suffix.lower() == ".btf" and path.name != "binary.btf":  # UBO2014; binary.btf
+        return path  # stands for its BTFbase folder, which then picks text or binary
+    return path.parent  # a table or image of a folder (BTFbase, UBO2003/ATRIUM image set)
 
 
 def display_colour(btf: BTF) -> tuple[float, float, float, float]:
@@ -106,7 +108,9 @@ class BTF_OT_import_material(Operator, ImportHelper):
     bl_label = "Import BTF Material"
     bl_options = {"REGISTER", "UNDO"}
 
-    filter_glob: StringProperty(default="*.btfm;*.txt;*.dat", options={"HIDDEN"})
+    filter_glob: StringProperty(
+        default="*.btfm;*.txt;*.dat;*.btf;*.zip;*.jpg;*.hdr", options={"HIDDEN"}
+    )
     relative_path: BoolProperty(
         name="Relative Path",
         default=True,

@@ -34,12 +34,13 @@ def codec_class(name: str) -> type:
 def load_btf(path: str | Path) -> BTF:
     """A BTFbase material folder (text tables or ``binary.btf``), a ``.btfm`` container, a
     UBO2014 DFMF ``.btf``, a BTFbase ``binary.btf``, or a UBO2003/ATRIUM image set (zip or
-    folder, read at full resolution: ``image_sets.load_image_set`` takes a texel count)."""
+    folder: at the largest power-of-two reduction that fits in memory, see
+    ``image_sets.load_image_set``)."""
     from .container import read_container
 
     path = Path(path)
     if path.is_dir() and image_sets.is_image_set(path) and not _is_btfbase(path):
-        return image_sets.load_image_set(path)
+        return image_sets.load_image_set(path, texels="auto")
     if path.is_dir():
         return load_btfbase_directory(path)
     if not path.exists():
@@ -49,7 +50,7 @@ def load_btf(path: str | Path) -> BTF:
     if ubo2014.is_ubo2014(path):
         return ubo2014.load_ubo2014(path)
     if path.suffix.lower() == ".zip":
-        return image_sets.load_image_set(path)
+        return image_sets.load_image_set(path, texels="auto")
     return read_container(path)
 
 
@@ -86,6 +87,8 @@ def bytes_on_disk(path: str | Path, btf: BTF) -> int:
     from . import btfbase_files
 
     path = Path(path)
+    if path.is_dir() and btf.meta.extra.get("file_format", "").startswith("ubo-image-set"):
+        return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
     if path.is_dir() and btf.meta.extra.get("btfbase_form") == "binary":
         return (path / "binary.btf").stat().st_size
     if path.is_dir():

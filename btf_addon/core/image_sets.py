@@ -108,12 +108,13 @@ def _index(grid_angles: tuple[np.ndarray, np.ndarray]) -> dict[tuple[int, int], 
 
 def load_image_set(
     path: str | Path,
-    texels: int | None = None,
+    texels: int | str | None = None,
     max_bytes: int = MAX_BYTES,
     progress: Callable[[int, int], None] | None = None,
 ) -> DenseBTF:
     """A UBO2003/ATRIUM zip or folder → DenseBTF (81 × 81 on the UBO2003 grid).
-    texels: box-filter each image to texels × texels (None: full size)."""
+    texels: box-filter each image to texels × texels (None: full size; "auto": the largest
+    power-of-two reduction within ``max_bytes``, noted in ``meta.extra['reduced']``)."""
     path = Path(path)
     names, read, close = _members(path)
     try:
@@ -137,8 +138,17 @@ def load_image_set(
                 + ("" if found else "; is this a UBO2003/ATRIUM image set?")
             )
         data: np.ndarray | None = None
+        note = None
         for count, ((v, li), (n, kind)) in enumerate(sorted(found.items())):
-            image = _box(_decode(read(n), kind, f"{path}: {n}"), texels)
+            image = _decode(read(n), kind, f"{path}: {n}")
+            if texels == "auto":  # the largest power-of-two reduction that fits max_bytes
+                side = min(image.shape[:2])
+                texels = side
+                while texels > 1 and expected * texels * texels * 12 > max_bytes:
+                    texels //= 2
+                if texels != side:
+                    note = f"read at {texels}×{texels} texels of {image.shape[1]}×{image.shape[0]}"
+            image = _box(image, texels)
             if data is None:
                 h, w, _ = image.shape
                 need = expected * h * w * 3 * 4
@@ -160,7 +170,12 @@ def load_image_set(
     finally:
         close()
     assert data is not None
-    return DenseBTF(data / np.float32(np.pi), UBO2003, UBO2003, name=path.stem)
+    btf = DenseBTF(data / np.float32(np.pi), UBO2003, UBO2003, name=path.stem)
+    kinds = sorted({kind for _, kind in found.values()})
+    btf.meta.extra["file_format"] = "ubo-image-set-" + "+".join(kinds)
+    if note:
+        btf.meta.extra["reduced"] = note
+    return btf
 
 
 def iter_set_names(suffix: str = ".hdr") -> Iterator[tuple[str, int, int]]:

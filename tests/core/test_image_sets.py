@@ -110,3 +110,6 @@ def test_incomplete_off_grid_or_oversized_sets_are_one_clear_error(tmp_path, hdr
         load_image_set(partial)
     with pytest.raises(BTFError, match=r"need .* GiB as a dense table"):
         load_image_set(hdr_folder, max_bytes=1000)
+    # "auto" (what load_btf and the import operator use) reduces until it fits instead.
+    auto = load_image_set(hdr_folder, texels="auto", max_bytes=81 * 81 * 2 * 2 * 12)
+    assert auto.meta.width == 2 and "2×2 texels of 4×4" in auto.meta.extra["reduced"]
