@@ -8,6 +8,7 @@ import bench_bridge
 import bench_decode
 import bench_envmap
 import bench_final_render
+import bench_formats
 import bench_interpolation
 import bench_viewport
 import bench_vr
@@ -26,6 +27,7 @@ if __name__ == "__main__":
         bench_bridge,
         bench_final_render,
         bench_wiimote,
+        bench_formats,
     ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")
         print(module.main())
