@@ -27,4 +27,28 @@ def svd_cases() -> dict[str, SVDBTF]:
         colour_model=0,
     )
     log_p = dataclasses.replace(logs.p, colour_model=12, cosine_in_data=False)
-    return {"yuv": yuv, "log-rgb": SVDBTF(log_p, logs.u, logs.sv)}
+    return {
+        "yuv": yuv,
+        "log-rgb": SVDBTF(log_p, logs.u, logs.sv),
+        "rotated-rings": SVDBTF(rotated_rings(yuv.p), yuv.u, yuv.sv),
+    }
+
+
+def rotated_rings(p):
+    """The same factors on rings whose azimuths are rotated per ring and (for the views)
+    unevenly spaced: what a file sampled otherwise than k·360°/n brings."""
+    view_phi, light_phi = [], []
+    for grid, out, uneven in ((p.view_grid, view_phi, True), (p.light_grid, light_phi, False)):
+        for r, n in enumerate(grid.counts):
+            k = np.arange(n) * 360.0 / n
+            if uneven and n > 2:
+                k = k + np.where(np.arange(n) % 2, 0.3 * 360.0 / n, 0.0)
+            out.extend(((k + 5.0 * r) % 360.0 if n > 1 else k).tolist())
+    sort = []
+    for grid, phis in ((p.view_grid, view_phi), (p.light_grid, light_phi)):
+        start, ordered = 0, []
+        for n in grid.counts:
+            ordered.extend(sorted(phis[start : start + n]))
+            start += n
+        sort.append(tuple(ordered))
+    return dataclasses.replace(p, view_phi=sort[0], light_phi=sort[1])

@@ -127,6 +127,19 @@ class SVDParams:
     rgb_scale: tuple[float, float, float]
     cosine_in_data: bool
     tile_size_mm: tuple[float, float] = (10.0, 10.0)
+    #: Azimuth (degrees) of every sample in ring order when a file's rings are not k·360°/n
+    #: from 0° (rotated or uneven rings); None: the RingGrid's own azimuths.
+    view_phi: tuple[float, ...] | None = None
+    light_phi: tuple[float, ...] | None = None
+
+    def phis(self, which: str) -> np.ndarray:
+        """(size,) azimuths in degrees of the view or light samples, ring order."""
+        grid, phi = (
+            (self.view_grid, self.view_phi)
+            if which == "view"
+            else (self.light_grid, self.light_phi)
+        )
+        return np.asarray(phi, dtype=np.float64) if phi is not None else grid.angles_deg()[1]
 
     def transform(self) -> ColourTransform:
         return colour_transform(
@@ -197,12 +210,13 @@ class SVDBTF(BTF):
         p = self.p
         x, y = wrap_texel(q.uv, p.width, p.height)
         texel = y * p.width + x
-        vi, vw = p.view_grid.weights(q.theta_v, q.phi_v)
-        _, view_phi = p.view_grid.angles_deg()
+        view_phi, light_phi = p.phis("view"), p.phis("light")
+        vi, vw = ring_weights(p.view_grid, view_phi, q.theta_v, q.phi_v)
         out = np.zeros((len(x), 3))
         n_lights = p.light_grid.size
         for a in range(4):
-            li, lw = p.light_grid.weights(q.theta_i, q.phi_i - q.phi_v + view_phi[vi[:, a]])
+            light_az = q.phi_i - q.phi_v + view_phi[vi[:, a]]
+            li, lw = ring_weights(p.light_grid, light_phi, q.theta_i, light_az)
             for b in range(4):
                 w = vw[:, a] * lw[:, b]
                 used = w > 0
@@ -239,6 +253,8 @@ class SVDBTF(BTF):
             "rgb_scale": list(p.rgb_scale),
             "cosine_in_data": p.cosine_in_data,
             "tile_size_mm": list(p.tile_size_mm),
+            "view_phi": None if p.view_phi is None else list(p.view_phi),
+            "light_phi": None if p.light_phi is None else list(p.light_phi),
         }
 
     @classmethod
@@ -259,8 +275,56 @@ class SVDBTF(BTF):
             rgb_scale=tuple(params["rgb_scale"]),
             cosine_in_data=bool(params["cosine_in_data"]),
             tile_size_mm=tuple(params["tile_size_mm"]),
+            view_phi=_optional_tuple(params.get("view_phi")),
+            light_phi=_optional_tuple(params.get("light_phi")),
         )
         return cls(p, [tables[f"u{c}"] for c in range(3)], [tables[f"sv{c}"] for c in range(3)])
+
+
+def _optional_tuple(values) -> tuple[float, ...] | None:
+    return None if values is None else tuple(float(v) for v in values)
+
+
+def ring_weights(
+    grid: RingGrid, phis: np.ndarray, theta_deg: np.ndarray, phi_deg: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """core/grid.py's ring-bilinear interpolation with each sample's own azimuth (``phis``,
+    ring order, increasing within a ring): linear in θ between the bracketing rings, within a
+    ring linear in φ between the neighbouring samples (wrapping). Equals ``grid.weights`` when
+    the azimuths are k·360°/n. Returns indices (M, 4) int64 and weights (M, 4) float64."""
+    rings = np.asarray(grid.theta_deg)
+    counts = np.asarray(grid.counts)
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    theta = np.clip(theta_deg, rings[0], rings[-1])
+    if len(rings) == 1:
+        r0 = np.zeros(len(theta), dtype=np.int64)
+        wt = np.zeros(len(theta))
+    else:
+        r0 = np.clip(np.searchsorted(rings, theta, side="right") - 1, 0, len(rings) - 2)
+        wt = (theta - rings[r0]) / (rings[r0 + 1] - rings[r0])
+    r1 = np.minimum(r0 + 1, len(rings) - 1)
+    pos = np.mod(phi_deg, 360.0)
+    idx = np.empty((len(theta), 4), dtype=np.int64)
+    w = np.empty((len(theta), 4))
+    for slot, ring, ring_w in ((0, r0, 1.0 - wt), (2, r1, wt)):
+        k0 = np.zeros(len(theta), dtype=np.int64)
+        wp = np.zeros(len(theta))
+        for r in np.unique(ring):
+            m = ring == r
+            n = counts[r]
+            ph = phis[offsets[r] : offsets[r] + n]
+            j = np.searchsorted(ph, pos[m], side="right") - 1
+            j = np.where(j < 0, n - 1, j)
+            span = np.mod(ph[(j + 1) % n] - ph[j], 360.0)
+            span = np.where(span <= 0.0, 360.0, span)
+            k0[m] = j
+            wp[m] = np.mod(pos[m] - ph[j], 360.0) / span
+        n = counts[ring]
+        idx[:, slot] = offsets[ring] + k0
+        idx[:, slot + 1] = offsets[ring] + (k0 + 1) % n
+        w[:, slot] = ring_w * (1.0 - wp)
+        w[:, slot + 1] = ring_w * wp
+    return idx, w
 
 
 # --- building from measured (dense) data ----------------------------------------------------
@@ -346,6 +410,8 @@ def _pack(btf: SVDBTF, out: TableWriter) -> None:
     channels = []
     for c in range(3):
         channels += [btf.u[c].shape[1], out.float_table(btf.u[c]), out.float_table(btf.sv[c])]
+    # Entries 9 and 10: every sample's azimuth (view, light), read by svd_ring_weights.
+    channels += [out.float_table(p.phis("view")), out.float_table(p.phis("light"))]
     colour = btf.colour.packed()
     colour[2] = float(p.cosine_in_data)
     out.set(svd_channels=out.int_table(np.asarray(channels)), f_svd_colour=out.float_table(colour))

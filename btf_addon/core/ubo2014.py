@@ -16,8 +16,8 @@ Layout (little endian; docs/formats.md has the table):
 Rows are direction pairs, view-major (row = view·nL + light); columns are texels, x fastest
 (btflib reshapes ``U·SVᵀ`` to (nL, nV, width, height) column-major), y from the image's top
 (``load_ubo2014`` flips it: texel row 0 is v = 0 here, as for every codec). Directions must
-form ring grids (rings of equal θ, azimuths k·360°/n from 0): the rows are reordered into
-core/grid.py's ring order for the svd codec (core/svd.py).
+group into rings of equal θ (any distinct azimuths): the rows are reordered into ring order
+and the azimuths kept per sample for the svd codec's interpolation (core/svd.py).
 """
 
 from __future__ import annotations
@@ -173,9 +173,12 @@ def _read_sampling(r: _Reader) -> tuple[np.ndarray, np.ndarray]:
     return views, lights
 
 
-def ring_order(angles_rad: np.ndarray, path: Path, what: str) -> tuple[RingGrid, np.ndarray]:
-    """Directions (n, 2) θ, φ radians → their RingGrid and ``order`` (file index of ring-order
-    sample i). Refuses directions that are not rings of equally spaced azimuths from 0°."""
+def ring_order(
+    angles_rad: np.ndarray, path: Path, what: str
+) -> tuple[RingGrid, np.ndarray, np.ndarray]:
+    """Directions (n, 2) θ, φ radians → their RingGrid, ``order`` (file index of ring-order
+    sample i) and every sample's azimuth in degrees (ring order, increasing within a ring).
+    Rings are the groups of equal θ; their azimuths may be rotated or uneven, but distinct."""
     theta = np.degrees(angles_rad[:, 0])
     phi = np.mod(np.degrees(angles_rad[:, 1]), 360.0)
     phi = np.where(phi > 360.0 - ANGLE_TOLERANCE_DEG, 0.0, phi)
@@ -185,22 +188,19 @@ def ring_order(angles_rad: np.ndarray, path: Path, what: str) -> tuple[RingGrid,
         members = np.flatnonzero(np.abs(theta - t) <= ANGLE_TOLERANCE_DEG)
         members = members[np.argsort(phi[members], kind="stable")]
         n = len(members)
-        expected = np.arange(n) * 360.0 / n
-        if t > ANGLE_TOLERANCE_DEG and not np.allclose(
-            phi[members], expected, atol=ANGLE_TOLERANCE_DEG
-        ):
-            raise UnsupportedBTFError(
-                f"{path}: the {what} directions at θ = {t:.2f}° are not {n} azimuths "
-                "k·360°/n from 0°: only ring-grid samplings are supported"
-            )
         if t <= ANGLE_TOLERANCE_DEG and n != 1:
             raise UnsupportedBTFError(f"{path}: {n} {what} directions at the pole")
+        if n > 1 and np.min(np.diff(phi[members])) <= ANGLE_TOLERANCE_DEG:
+            raise BTFFormatError(
+                f"{path}: two {what} directions share θ = {t:.2f}° and the same azimuth"
+            )
         order.extend(members.tolist())
         ring_theta.append(float(np.mean(theta[members])))
         counts.append(n)
     if len(order) != len(theta):
-        raise UnsupportedBTFError(f"{path}: {what} directions do not group into rings")
-    return RingGrid(tuple(ring_theta), tuple(counts)), np.asarray(order)
+        raise UnsupportedBTFError(f"{path}: {what} directions do not group into rings of equal θ")
+    order_arr = np.asarray(order)
+    return RingGrid(tuple(ring_theta), tuple(counts)), order_arr, phi[order_arr]
 
 
 _SCALARS = {2: "<f2", 4: "<f4", 8: "<f8"}
@@ -300,8 +300,8 @@ def load_ubo2014(path: str | Path) -> SVDBTF:
     """A DFMF file → an SVDBTF with its rows in ring order."""
     path = Path(path)
     meta, u, sv = read_ubo2014(path)
-    view_grid, view_order = ring_order(meta.view_angles_rad, path, "view")
-    light_grid, light_order = ring_order(meta.light_angles_rad, path, "light")
+    view_grid, view_order, view_phi = ring_order(meta.view_angles_rad, path, "view")
+    light_grid, light_order, light_phi = ring_order(meta.light_angles_rad, path, "light")
     n_lights = len(meta.light_angles_rad)
     rows = (view_order[:, None] * n_lights + light_order[None, :]).ravel()
     tile = (meta.width / meta.ppmm, meta.height / meta.ppmm) if meta.ppmm > 0 else (10.0, 10.0)
@@ -317,6 +317,8 @@ def load_ubo2014(path: str | Path) -> SVDBTF:
         rgb_scale=meta.rgb_scale,
         cosine_in_data=meta.cosine_in_data,
         tile_size_mm=tile,
+        view_phi=_unless_regular(view_grid, view_phi),
+        light_phi=_unless_regular(light_grid, light_phi),
     )
     # File texel x + width·y counts rows from the image's top; ours from v = 0 (the bottom).
     flipped = [a.reshape(meta.height, meta.width, -1)[::-1].reshape(len(a), -1) for a in sv]
@@ -325,3 +327,10 @@ def load_ubo2014(path: str | Path) -> SVDBTF:
     btf.meta.extra["scalar_bytes"] = meta.scalar_sizes
     btf.meta.extra["rotations"] = len(meta.rotations)
     return btf
+
+
+def _unless_regular(grid: RingGrid, phi: np.ndarray) -> tuple[float, ...] | None:
+    """None when the azimuths are the grid's own k·360°/n (within the angle tolerance)."""
+    if np.allclose(phi, grid.angles_deg()[1], atol=ANGLE_TOLERANCE_DEG):
+        return None
+    return tuple(float(v) for v in phi)

@@ -56,8 +56,8 @@ def dfmf_bytes(btf: SVDBTF, scalar_size: int = 2) -> bytes:
     dtype = "<f2" if scalar_size == 2 else "<f4"
     ppmm = p.width / p.tile_size_mm[0] if p.tile_size_mm[0] > 0 else 0.0
     out = [SIGNATURE, meta_block(btf, ppmm)]
-    vt, vp = p.view_grid.angles_deg()
-    lt, lp = p.light_grid.angles_deg()
+    vt, vp = p.view_grid.angles_deg()[0], p.phis("view")
+    lt, lp = p.light_grid.angles_deg()[0], p.phis("light")
     lights = np.column_stack([np.radians(lt), np.radians(lp)]).astype("<f4")
     out.append(struct.pack("<I", len(vt)))
     for t, ph in zip(vt, vp, strict=True):

@@ -1,8 +1,8 @@
 /* The svd codec (UBO2014 DFMF) from the packed layout: btf_addon/core/svd.py is the reference.
  * Per channel c: value y_c = sum_k U_c[pair, k] * SV_c[texel, k]; the colour transform turns
  * y into RGB per measured direction pair; pairs are blended ring-bilinearly (view, then light
- * at the same azimuth relative to the view), as the dense codec. Included by btf_packed.h after
- * ring_weights / ring_sample_phi. */
+ * at the same azimuth relative to the view), as the dense codec but with each sample's own
+ * azimuth from a table. Included by btf_packed.h (needs btf_mod, ITAB, FTAB). */
 #ifndef BTF_SVD_H
 #define BTF_SVD_H
 
@@ -36,6 +36,49 @@ inline float svd_channel(Stream I, Stream F, int channels, int c, int pair, int 
   return sum;
 }
 
+/* ring_weights (btf_packed.h) with every sample's own azimuth (table phi_off, ring order,
+ * increasing within a ring): as svd.ring_weights in btf_addon/core/svd.py. */
+inline void svd_ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int phi_off,
+                             int n_rings, float theta, float phi, int idx[4], float w[4])
+{
+  float first = FTAB(theta_off), last = FTAB(theta_off + n_rings - 1);
+  theta = clamp(theta, first, last);
+  int r0 = 0;
+  for (int r = 1; r < n_rings - 1; r++) {
+    if (FTAB(theta_off + r) <= theta) {
+      r0 = r;
+    }
+  }
+  float wt = 0.0f;
+  int r1 = r0;
+  if (n_rings > 1) {
+    r1 = r0 + 1;
+    wt = (theta - FTAB(theta_off + r0)) / (FTAB(theta_off + r1) - FTAB(theta_off + r0));
+  }
+  float pos = btf_mod(phi, 360.0f);
+  for (int k = 0; k < 2; k++) {
+    int ring = k ? r1 : r0;
+    float ring_w = k ? wt : 1.0f - wt;
+    int start = ITAB(offsets_off + ring);
+    int n = ITAB(offsets_off + ring + 1) - start;
+    int j = n - 1;
+    for (int s = 0; s < n; s++) {
+      if (FTAB(phi_off + start + s) <= pos) {
+        j = s;
+      }
+    }
+    int next = (j + 1) % n;
+    float ph = FTAB(phi_off + start + j);
+    float span = btf_mod(FTAB(phi_off + start + next) - ph, 360.0f);
+    span = span <= 0.0f ? 360.0f : span;
+    float wp = btf_mod(pos - ph, 360.0f) / span;
+    idx[2 * k] = start + j;
+    idx[2 * k + 1] = start + next;
+    w[2 * k] = ring_w * (1.0f - wp);
+    w[2 * k + 1] = ring_w * wp;
+  }
+}
+
 /* Angles in degrees, theta <= 90: RGB before value_scale (the dispatch multiplies by it). */
 inline float3 svd_evaluate(Stream I, Stream F, float2 uv, float theta_i, float phi_i,
                            float theta_v, float phi_v)
@@ -48,16 +91,17 @@ inline float3 svd_evaluate(Stream I, Stream F, float2 uv, float theta_i, float p
   int vi[4], li[4];
   float vw[4], lw[4];
   int n_view_rings = ITAB(H_N_VIEW_RINGS), n_light_rings = ITAB(H_N_LIGHT_RINGS);
-  ring_weights(I, F, ITAB(H_F_VIEW_THETA), ITAB(H_VIEW_OFFSETS), n_view_rings, theta_v, phi_v,
-               vi, vw);
+  int view_phi_off = ITAB(channels + 9), light_phi_off = ITAB(channels + 10);
+  svd_ring_weights(I, F, ITAB(H_F_VIEW_THETA), ITAB(H_VIEW_OFFSETS), view_phi_off, n_view_rings,
+                   theta_v, phi_v, vi, vw);
   float3 sum = (float3)(0.0f);
   for (int a = 0; a < 4; a++) {
     if (vw[a] <= 0.0f) {
       continue;
     }
-    float view_phi = ring_sample_phi(I, ITAB(H_VIEW_OFFSETS), n_view_rings, vi[a]);
-    ring_weights(I, F, ITAB(H_F_LIGHT_THETA), ITAB(H_LIGHT_OFFSETS), n_light_rings, theta_i,
-                 phi_i - phi_v + view_phi, li, lw);
+    float view_phi = FTAB(view_phi_off + vi[a]);
+    svd_ring_weights(I, F, ITAB(H_F_LIGHT_THETA), ITAB(H_LIGHT_OFFSETS), light_phi_off,
+                     n_light_rings, theta_i, phi_i - phi_v + view_phi, li, lw);
     for (int b = 0; b < 4; b++) {
       float w = vw[a] * lw[b];
       if (w <= 0.0f) {

@@ -156,3 +156,30 @@ def test_reduced_resolution_is_the_box_filtered_btf(source, rng):
         axis=0,
     )
     np.testing.assert_allclose(half.evaluate_angles(q), want, rtol=1e-5, atol=1e-7)
+
+
+def test_rotated_rings_are_exact_at_their_samples_and_continuous(rng):
+    """Per-sample azimuths (rings rotated and unevenly spaced): the value at each measured
+    direction pair is that pair's decode, and small steps give small changes."""
+    from svd_cases import svd_cases
+
+    btf = svd_cases()["rotated-rings"]
+    p = btf.p
+    vt, _ = p.view_grid.angles_deg()
+    lt, _ = p.light_grid.angles_deg()
+    vphi, lphi = p.phis("view"), p.phis("light")
+    vi = rng.integers(0, p.view_grid.size, 300)
+    li = rng.integers(0, p.light_grid.size, 300)
+    li[lt[li] > 60] = 0  # inside the measured rings: no fade past the last one
+    q = np.column_stack([np.full((300, 2), 0.1), lt[li], lphi[li], vt[vi], vphi[vi]])
+    want = btf.pair_rgb(vi * p.light_grid.size + li, np.zeros(300, dtype=np.int64))
+    np.testing.assert_allclose(
+        btf.evaluate_angles(q), np.maximum(want, 0) / np.pi, rtol=1e-5, atol=1e-7
+    )
+    q = _queries(rng, 2000)
+    q[:, 2::2] = np.clip(q[:, 2::2], 0, 89.9)
+    base = btf.evaluate_angles(q)
+    for col in (3, 5):
+        moved = q.copy()
+        moved[:, col] += 1e-3
+        assert np.abs(btf.evaluate_angles(moved) - base).max() <= 2e-3 * base.max()

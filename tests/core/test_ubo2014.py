@@ -167,17 +167,28 @@ def test_hard_cases_end_in_one_clear_error(tmp_path):
             load_ubo2014(_write(tmp_path, data))
 
 
-def test_non_ring_sampling_is_refused_clearly(tmp_path, synthetic):
-    src, data = synthetic
-    svd, _ = factorise(data, src.view_grid, src.light_grid, ranks=(1, 1, 1))
-    blob = bytearray(dfmf_bytes(svd, 4))
-    # Move view 2's azimuth (θ 20° ring) by 7°: no longer k·360°/n.
-    _, view_phi = src.view_grid.angles_deg()
-    first_view = blob.index(struct.pack("<I", src.view_grid.size)) + 4
-    stride = 12 + 8 * src.light_grid.size
-    pos = first_view + 2 * stride + 4
-    blob[pos : pos + 4] = struct.pack("<f", np.radians(view_phi[2] + 7.0))
-    with pytest.raises(UnsupportedBTFError, match="ring-grid"):
+def test_rotated_rings_round_trip_and_duplicates_are_refused(tmp_path, rng):
+    """A file whose rings are rotated and uneven keeps its azimuths (written and read back) and
+    decodes at its own samples; two samples at one direction are one clear error."""
+    from svd_cases import svd_cases
+
+    btf = svd_cases()["rotated-rings"]
+    path = tmp_path / "rot.btf"
+    write_ubo2014(path, btf, scalar_size=4)
+    back = load_ubo2014(path)
+    np.testing.assert_allclose(back.p.phis("view"), btf.p.phis("view"), atol=1e-4)
+    np.testing.assert_allclose(back.p.phis("light"), btf.p.phis("light"), atol=1e-4)
+    q = np.column_stack([rng.random((500, 2)), rng.random((500, 4)) * [90, 360, 90, 360]])
+    np.testing.assert_allclose(
+        back.evaluate_angles(q), btf.evaluate_angles(q), rtol=1e-4, atol=1e-6
+    )
+    blob = bytearray(dfmf_bytes(btf, 4))
+    n_lights = btf.p.light_grid.size
+    first_view = blob.index(struct.pack("<I", btf.p.view_grid.size)) + 4
+    stride = 12 + 8 * n_lights
+    second = first_view + stride  # view 1: copy view 2's direction onto it
+    blob[second : second + 8] = blob[second + stride : second + stride + 8]
+    with pytest.raises(BTFFormatError, match="same azimuth"):
         load_ubo2014(_write(tmp_path, bytes(blob)))
 
 

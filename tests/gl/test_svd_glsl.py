@@ -8,7 +8,7 @@ from helpers import random_queries
 from svd_cases import svd_cases
 
 
-@pytest.mark.parametrize("case", ["yuv", "log-rgb"])
+@pytest.mark.parametrize("case", ["yuv", "log-rgb", "rotated-rings"])
 def test_glsl_svd_matches_numpy_within_1_255(gl_ctx, rng, case):
     """|GLSL − numpy| ≤ 1/255 of a white reflectance factor (value × π)."""
     from btf_addon.gl.query import glsl_btf

@@ -20,7 +20,7 @@ def _device_indices():
 
 
 @pytest.mark.parametrize("device_index", _device_indices() or [None])
-@pytest.mark.parametrize("case", ["yuv", "log-rgb"])
+@pytest.mark.parametrize("case", ["yuv", "log-rgb", "rotated-rings"])
 def test_opencl_svd_matches_numpy_within_1_255(device_index, case, rng):
     """|OpenCL − numpy| ≤ 1/255 of a white reflectance factor (value × π), the LDR step the
     issue sets; in practice float32 sums of ≤ 16·6 products are ~1e-6 off."""
