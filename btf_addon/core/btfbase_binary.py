@@ -11,7 +11,8 @@ tables (docs/formats.md has every field). In short:
   ``bits = bit_length(max − min)`` bits each; a float table is ``f32 min, f32 max, u32 rows,
   u32 cols`` and one byte ``q`` per value, ``v = min + q·(max − min)/256``. Each table's payload
   occupies ``4·(⌊payload bits/32⌋ + 1)`` bytes: 32-bit words and always one more than the
-  payload needs whole words for (zero padding).
+  payload needs whole words for (zero padding). A constant index table (max = min, not in the
+  shared files) is read with 0 bits per value, else 1 — whichever parses the whole file.
 
 The text tables of the shared materials hold exactly these dequantised values (to their six
 printed decimals), so both forms decode alike (tests/core/test_btfbase_binary.py).
@@ -182,7 +183,7 @@ def _need(data: bytes, pos: int, size: int, path: Path, table: str) -> None:
         )
 
 
-def _index_table(data, pos, rows, cols, path, table) -> tuple[np.ndarray, int]:
+def _index_table(data, pos, rows, cols, path, table, constant_bits) -> tuple[np.ndarray, int]:
     n = rows * cols
     if n <= 0 or n > MAX_VALUES:
         raise BTFFormatError(f"{path}: table {table} would hold {rows}×{cols} values")
@@ -190,10 +191,13 @@ def _index_table(data, pos, rows, cols, path, table) -> tuple[np.ndarray, int]:
     low, high = (int(v) for v in np.frombuffer(data, "<i4", 2, pos))
     if high < low:
         raise BTFFormatError(f"{path}: table {table}: max {high} < min {low}")
-    # A constant table (high == low) was not seen in the shared files; one bit each is assumed.
-    bits = max(1, (high - low).bit_length())
+    # A constant table (high == low) was not seen in the shared files: its bit count (0 by
+    # bit_length, or a minimum of 1) is whichever makes the whole file parse (read_binary).
+    bits = (high - low).bit_length() if high > low else constant_bits
     size = _payload_bytes(n * bits)
     _need(data, pos + 8, size, path, table)
+    if bits == 0:
+        return np.full((rows, cols), low, dtype=np.int32), pos + 8 + size
     raw = np.frombuffer(data, np.uint8, (n * bits + 7) // 8, pos + 8)
     stream = np.unpackbits(raw, bitorder="little")[: n * bits].reshape(n, bits)
     values = stream.astype(np.int64) @ (np.int64(1) << np.arange(bits, dtype=np.int64))
@@ -230,6 +234,16 @@ def read_binary(path: str | Path) -> tuple[BinaryHeader, dict[str, np.ndarray]]:
     except OSError as exc:
         raise BTFFormatError(f"{path}: cannot read ({exc.strerror})") from None
     head = read_header(data, path)
+    try:
+        return head, _read_tables(data, head, path, constant_bits=0)
+    except BTFFormatError as first:
+        try:  # the other reading of constant index tables (see _index_table)
+            return head, _read_tables(data, head, path, constant_bits=1)
+        except BTFFormatError:
+            raise first from None
+
+
+def _read_tables(data: bytes, head: BinaryHeader, path: Path, constant_bits: int) -> dict:
     columns = {
         "cols": head.cols,
         "n_beta": head.n_beta,
@@ -245,7 +259,7 @@ def read_binary(path: str | Path) -> tuple[BinaryHeader, dict[str, np.ndarray]]:
             tables[table], pos = _float_table(data, pos, cols, path, table)
         else:
             rows = head.rows if table == "pdf6_slices" else head.counts[COUNT_FIELDS[table]]
-            tables[table], pos = _index_table(data, pos, rows, cols, path, table)
+            tables[table], pos = _index_table(data, pos, rows, cols, path, table, constant_bits)
     if pos != len(data):
         raise BTFFormatError(f"{path}: {len(data) - pos} bytes of trailing data after the tables")
     for table, count in COUNT_FIELDS.items():
@@ -256,7 +270,7 @@ def read_binary(path: str | Path) -> tuple[BinaryHeader, dict[str, np.ndarray]]:
             )
     if tables["pdf6_scale"].shape != (head.rows, head.cols):
         raise BTFFormatError(f"{path}: the P6 scale table's shape differs from the material's")
-    return head, tables
+    return tables
 
 
 def load_binary(path: str | Path) -> MLVQBTF:

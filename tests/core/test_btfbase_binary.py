@@ -115,3 +115,48 @@ def test_hard_cases_end_in_one_clear_error(tmp_path):
     blob[head.data_offset + 4 : head.data_offset + 8] = (999).to_bytes(4, "little")
     with pytest.raises(BTFFormatError):
         btfbase_binary.load_binary(_write(tmp_path, bytes(blob)))
+
+
+def _encode_index(values: np.ndarray, bits_if_constant: int) -> bytes:
+    """An index table by the documented layout (written here, independently of the reader)."""
+    low, high = int(values.min()), int(values.max())
+    bits = (high - low).bit_length() if high > low else bits_if_constant
+    n = values.size
+    payload = np.zeros(4 * (n * bits // 32 + 1), dtype=np.uint8)
+    if bits:
+        planes = ((values.ravel()[:, None] - low) >> np.arange(bits)) & 1
+        packed = np.packbits(planes.astype(np.uint8).ravel(), bitorder="little")
+        payload[: len(packed)] = packed
+    return np.array([low, high], "<i4").tobytes() + payload.tobytes()
+
+
+def _encode_float(values: np.ndarray) -> bytes:
+    low, high = np.float32(values.min()), np.float32(values.max())
+    q = np.round((values.astype(np.float64) - low) / (float(high) - float(low)) * 256)
+    payload = np.zeros(4 * (values.size * 8 // 32 + 1), dtype=np.uint8)
+    payload[: values.size] = np.clip(q, 0, 255).astype(np.uint8).ravel()  # no wrap here
+    head = np.array([low, high], "<f4").tobytes() + np.array(values.shape, "<u4").tobytes()
+    return head + payload.tobytes()
+
+
+@pytest.mark.parametrize("constant_bits", [0, 1])
+def test_constant_index_tables_read_either_way(tmp_path, constant_bits):
+    """A constant index table (here IndexAB all 0: every β sample uses colour 0) was not in the
+    shared files; written with 0 or with 1 bit per value by the documented layout, both parse."""
+    data = (shared_material("alu") / "binary.btf").read_bytes()
+    head, tables = btfbase_binary.read_binary(shared_material("alu") / "binary.btf")
+    tables["index_ab"] = np.zeros_like(tables["index_ab"])
+    body = b"".join(
+        _encode_float(tables[name]) if kind == "f" else _encode_index(tables[name], constant_bits)
+        for name, kind, _ in btfbase_binary.BINARY_ORDER
+    )
+    path = _write(tmp_path, data[: head.data_offset] + body)
+    _, back = btfbase_binary.read_binary(path)
+    assert np.all(back["index_ab"] == 0)
+    for name, table in tables.items():
+        if table.dtype.kind == "i":
+            np.testing.assert_array_equal(back[name], table, err_msg=name)
+        else:  # re-quantised to this table's own (min, max): within one step (the top one
+            # is clipped to 255 rather than wrapped)
+            step = (float(table.max()) - float(table.min())) / 256
+            np.testing.assert_allclose(back[name], table, atol=step + 1e-6, err_msg=name)
