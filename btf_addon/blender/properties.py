@@ -30,7 +30,8 @@ class BTFMaterialSettings(PropertyGroup):
         default="",
         # Blender 4.5+ warns about "//" paths unless the property says it supports them.
         options=compat.path_property_options(),
-        description="BTFbase material directory or .btfm file; relative paths (//) are kept "
+        description="BTFbase material directory (text tables or binary.btf), UBO2014 .btf, "
+        "UBO2003/ATRIUM image set (zip or folder) or .btfm file; relative paths (//) are kept "
         "relative to the .blend so render farms find the data",
     )
     uv_map: StringProperty(
