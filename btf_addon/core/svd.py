@@ -8,7 +8,8 @@ texels; the file keeps its first K_c components: ``U_c`` (n_views·n_lights, K_c
 
 and the colour transform turns (y_0, y_1, y_2) into RGB (``colour_transform``: an optional
 ``exp(y) − ε`` on the first or on every channel, then ``A·y + b``). Rows are in ring order,
-view-major: p = view·n_lights + light, with both direction sets on a ``RingGrid``.
+view-major: p = view·n_lights + light, with both direction sets on a ``RingGrid`` whose samples
+may carry their own azimuths (``SVDParams.view_phi``/``light_phi``: rotated or uneven rings).
 
 Between the measured directions the codec interpolates like the dense codec (core/dense.py):
 ring-bilinear in the view, and for each of its (up to) four view samples ring-bilinear in the
@@ -25,7 +26,7 @@ value = RGB · rgb_scale / π (× cos θi when the file's data lacks it): docs/f
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -389,8 +390,6 @@ def reduce_resolution(btf: SVDBTF, factor: int) -> SVDBTF:
     for a in btf.sv:
         grid = a.reshape(p.height, p.width, -1)[: h * factor, : w * factor]
         sv.append(grid.reshape(h, factor, w, factor, -1).mean(axis=(1, 3)).reshape(h * w, -1))
-    from dataclasses import replace
-
     return SVDBTF(replace(p, width=w, height=h, name=f"{p.name} (1/{factor})"), btf.u, sv)
 
 
