@@ -260,26 +260,43 @@ class SVDBTF(BTF):
 
     @classmethod
     def from_params(cls, params: dict[str, Any], tables: dict[str, np.ndarray]) -> SVDBTF:
-        grids = {
-            k: RingGrid(tuple(params[k][0]), tuple(int(n) for n in params[k][1]))
-            for k in ("view_grid", "light_grid")
-        }
-        p = SVDParams(
-            name=params["name"],
-            width=int(params["width"]),
-            height=int(params["height"]),
-            view_grid=grids["view_grid"],
-            light_grid=grids["light_grid"],
-            colour_model=int(params["colour_model"]),
-            pca_matrix=tuple(params["pca_matrix"]),
-            colour_mean=tuple(params["colour_mean"]),
-            rgb_scale=tuple(params["rgb_scale"]),
-            cosine_in_data=bool(params["cosine_in_data"]),
-            tile_size_mm=tuple(params["tile_size_mm"]),
-            view_phi=_optional_tuple(params.get("view_phi")),
-            light_phi=_optional_tuple(params.get("light_phi")),
-        )
-        return cls(p, [tables[f"u{c}"] for c in range(3)], [tables[f"sv{c}"] for c in range(3)])
+        try:
+            p = _params_from_json(params)
+            u = [tables[f"u{c}"] for c in range(3)]
+            sv = [tables[f"sv{c}"] for c in range(3)]
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise BTFFormatError(f"svd parameters or tables are malformed ({exc!r})") from None
+        return cls(p, u, sv)
+
+
+def _params_from_json(params: dict[str, Any]) -> SVDParams:
+    grids = {
+        k: RingGrid(tuple(float(t) for t in params[k][0]), tuple(int(n) for n in params[k][1]))
+        for k in ("view_grid", "light_grid")
+    }
+    p = SVDParams(
+        name=str(params["name"]),
+        width=int(params["width"]),
+        height=int(params["height"]),
+        view_grid=grids["view_grid"],
+        light_grid=grids["light_grid"],
+        colour_model=int(params["colour_model"]),
+        pca_matrix=tuple(float(v) for v in params["pca_matrix"]),
+        colour_mean=tuple(float(v) for v in params["colour_mean"]),
+        rgb_scale=tuple(float(v) for v in params["rgb_scale"]),
+        cosine_in_data=bool(params["cosine_in_data"]),
+        tile_size_mm=tuple(float(v) for v in params["tile_size_mm"]),
+        view_phi=_optional_tuple(params.get("view_phi")),
+        light_phi=_optional_tuple(params.get("light_phi")),
+    )
+    if len(p.pca_matrix) != 9 or len(p.colour_mean) != 3 or len(p.rgb_scale) != 3:
+        raise ValueError("colour matrix/mean/scale sizes")
+    for phi, grid in ((p.view_phi, p.view_grid), (p.light_phi, p.light_grid)):
+        if phi is not None and len(phi) != grid.size:
+            raise ValueError("azimuth table size differs from its grid")
+    if p.width < 1 or p.height < 1:
+        raise ValueError("texture size")
+    return p
 
 
 def _optional_tuple(values) -> tuple[float, ...] | None:

@@ -183,3 +183,13 @@ def test_rotated_rings_are_exact_at_their_samples_and_continuous(rng):
         moved = q.copy()
         moved[:, col] += 1e-3
         assert np.abs(btf.evaluate_angles(moved) - base).max() <= 2e-3 * base.max()
+
+
+def test_malformed_container_params_are_one_clear_error(source):
+    svd, _ = factorise(source.data * np.pi, source.view_grid, source.light_grid, ranks=(1, 1, 1))
+    for broken in ({"width": "x"}, {"pca_matrix": [1, 2]}, {"view_grid": None}):
+        params = {**svd.params(), **broken}
+        with pytest.raises(BTFFormatError, match="svd parameters or tables are malformed"):
+            type(svd).from_params(params, svd.tables())
+    with pytest.raises(BTFFormatError, match="malformed"):
+        type(svd).from_params(svd.params(), {"u0": svd.u[0]})
