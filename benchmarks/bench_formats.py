@@ -25,7 +25,7 @@ from btf_addon.core.container import write_container
 from btf_addon.core.dense import tabulate
 from btf_addon.core.grid import UBO2003
 from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd import factorise
+from btf_addon.core.svd_build import factorise
 from btf_addon.core.ubo2014_writer import write_ubo2014
 
 N = 200_000

@@ -273,7 +273,7 @@ def _with_suffix(path: Path) -> Path:
 
 def cmd_convert(args) -> int:
     from ..core.image_sets import is_image_set, load_image_set
-    from ..core.svd import factorise
+    from ..core.svd_build import factorise
     from ..core.ubo2014_writer import write_ubo2014
 
     src = Path(args.src)

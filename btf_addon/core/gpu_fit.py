@@ -5,7 +5,7 @@ the GLSL back end addresses it with offsets stored exactly as float32 integers. 
 when its stream has fewer than 2^24 floats (exact offsets), at most ``max_texture_size`` rows
 and at most ``max_bytes`` bytes. Large tabulated BTFs — an svd BTF at 400² and high rank, a
 dense one at 256² on the UBO grid — can exceed that; their spatial resolution is then halved
-(box filter: ``svd.reduce_resolution``, the same for dense data) until they fit, with a message
+(box filter: ``svd_build.reduce_resolution``, the same for dense data) until they fit, with a message
 saying so, instead of a failed draw.
 """
 
@@ -15,7 +15,8 @@ from .dense import DenseBTF
 from .errors import UnsupportedBTFError
 from .model import BTF, DelegatingBTF
 from .packed import MAX_EXACT_INT, TABLE_WIDTH
-from .svd import SVDBTF, reduce_resolution
+from .svd import SVDBTF
+from .svd_build import reduce_resolution
 
 #: Defaults when the device does not report its own: the common desktop texture limit and a
 #: quarter of an 8 GB card.

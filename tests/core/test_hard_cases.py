@@ -12,7 +12,7 @@ from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from btf_addon.core.dense import tabulate
 from btf_addon.core.microgeometry import woven
 from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd import factorise
+from btf_addon.core.svd_build import factorise
 
 
 def _codecs():

@@ -11,7 +11,8 @@ from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
 from btf_addon.core.grid import uniform_ring_grid
 from btf_addon.core.microgeometry import woven
 from btf_addon.core.packed import pack
-from btf_addon.core.svd import colour_transform, factorise, reduce_resolution
+from btf_addon.core.svd import colour_transform
+from btf_addon.core.svd_build import factorise, reduce_resolution
 
 
 @pytest.fixture(scope="module")

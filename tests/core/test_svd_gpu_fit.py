@@ -11,7 +11,7 @@ from btf_addon.core.errors import UnsupportedBTFError
 from btf_addon.core.gpu_fit import fit_for_gpu, packed_floats
 from btf_addon.core.grid import uniform_ring_grid
 from btf_addon.core.packed import pack
-from btf_addon.core.svd import factorise
+from btf_addon.core.svd_build import factorise
 
 GRID = uniform_ring_grid(30.0)  # 1 + 6 + 12 directions: small, cheap tests
 

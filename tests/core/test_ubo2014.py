@@ -13,7 +13,7 @@ from btf_addon.core.dense import tabulate
 from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
 from btf_addon.core.grid import uniform_ring_grid
 from btf_addon.core.microgeometry import woven
-from btf_addon.core.svd import factorise
+from btf_addon.core.svd_build import factorise
 from btf_addon.core.ubo2014 import load_ubo2014, read_ubo2014
 from btf_addon.core.ubo2014_writer import dfmf_bytes, write_ubo2014
 

@@ -10,7 +10,7 @@ from btf_addon.core.analytic import LambertianBTF
 from btf_addon.core.envmap import Environment
 from btf_addon.core.gpu_fit import fit_for_gpu
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.svd import factorise
+from btf_addon.core.svd_build import factorise
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
