@@ -5,8 +5,8 @@ the GLSL back end addresses it with offsets stored exactly as float32 integers. 
 when its stream has fewer than 2^24 floats (exact offsets), at most ``max_texture_size`` rows
 and at most ``max_bytes`` bytes. Large tabulated BTFs — an svd BTF at 400² and high rank, a
 dense one at 256² on the UBO grid — can exceed that; their spatial resolution is then halved
-(box filter: ``svd_build.reduce_resolution``, the same for dense data) until they fit, with a message
-saying so, instead of a failed draw.
+(box filter: ``svd_build.reduce_resolution``, the same for dense data) until they fit, with a
+message saying so, instead of a failed draw.
 """
 
 from __future__ import annotations
