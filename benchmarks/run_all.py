@@ -9,6 +9,7 @@ import bench_bridge
 import bench_decode
 import bench_envmap
 import bench_final_render
+import bench_formats
 import bench_interpolation
 import bench_mapping
 import bench_viewport
@@ -29,6 +30,7 @@ if __name__ == "__main__":
         bench_final_render,
         bench_mapping,
         bench_wiimote,
+        bench_formats,
         bench_accuracy,  # last: it rewrites its section of docs/accuracy.md
     ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")

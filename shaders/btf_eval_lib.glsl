@@ -36,6 +36,9 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   if (codec == CODEC_DENSE) {
     return dense_evaluate(uv, theta_i, phi_i, theta_v, phi_v);
   }
+  if (codec == CODEC_SVD) {
+    return svd_evaluate(uv, theta_i, phi_i, theta_v, phi_v) * ftab(F_VALUE_SCALE);
+  }
   vec3 albedo = vec3(ftab(F_ALBEDO), ftab(F_ALBEDO + 1), ftab(F_ALBEDO + 2));
   vec3 wi = btf_direction(theta_i, phi_i);
   if (codec == CODEC_LAMBERTIAN) {

@@ -57,6 +57,11 @@ class BlenderGPUDevice:
     """Targets are ``GPUOffScreen`` objects (always with a depth buffer); textures and batches
     are freed by Python's garbage collection, offscreens by ``release``."""
 
+    @property
+    def max_texture_size(self) -> int:
+        """Checked before a BTF's tables are uploaded (core/gpu_fit.py)."""
+        return gpu.capabilities.max_texture_size_get()
+
     def program(self, interface: ShaderInterface) -> gpu.types.GPUShader:
         return shader(interface)
 

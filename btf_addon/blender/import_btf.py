@@ -134,7 +134,9 @@ class BTF_OT_import_material(Operator, ImportHelper):
     # SKIP_SAVE: a file dropped on the window (file_handler.py) runs at once; the menu entry
     # must still open the browser, not reuse the last path.
     filepath: StringProperty(subtype="FILE_PATH", options={"SKIP_SAVE"})
-    filter_glob: StringProperty(default="*.btfm;*.btf;*.txt;*.dat", options={"HIDDEN"})
+    filter_glob: StringProperty(
+        default="*.btfm;*.txt;*.dat;*.btf;*.zip;*.jpg;*.hdr", options={"HIDDEN"}
+    )
     target_material: StringProperty(
         name="Material",
         default="",

@@ -169,6 +169,8 @@ def with_error_colour(exported, missing: list[MissingSource]):
 BTFBASE_MARKER = "all_materialInfo.txt"
 #: Files that are a BTF source on their own (not a table of a folder).
 SINGLE_FILE_SUFFIXES = (".btfm",)
+#: An image inside an image-set folder stands for the folder (core/image_sets.py).
+IMAGE_SET_SUFFIXES = (".jpg", ".jpeg", ".hdr")
 
 
 def is_btfbase_folder(folder: Path) -> bool:
@@ -178,17 +180,19 @@ def is_btfbase_folder(folder: Path) -> bool:
 def source_for(filepath: str) -> str:
     """The BTF source a chosen path stands for, in the same form (a "//" path stays relative):
     a folder or a ``.btfm`` file is itself; any file inside a BTFbase material folder (a text
-    table, ``binary.btf``) stands for the folder; another file is itself (a single-file
-    format, or an error ``load_btf`` will name)."""
+    table, ``binary.btf``) or an image of an image set stands for the folder; another file is
+    itself (UBO2014 ``.btf``, an image-set ``.zip``, or an error ``load_btf`` will name)."""
     if not filepath:
         return ""
     stripped = filepath.rstrip("/\\") or filepath
     resolved = Path(bpy.path.abspath(stripped))
     if resolved.is_dir() or resolved.suffix.lower() in SINGLE_FILE_SUFFIXES:
         return stripped
-    if is_btfbase_folder(resolved.parent):
+    if is_btfbase_folder(resolved.parent) or resolved.name.lower() == "binary.btf":
         return os.path.dirname(stripped)
-    return stripped
+    if resolved.suffix.lower() in IMAGE_SET_SUFFIXES:  # one image of a UBO2003/ATRIUM set
+        return os.path.dirname(stripped)
+    return stripped  # UBO2014 .btf, an image-set .zip, or an error load_btf will name
 
 
 def source_hint(filepath: str) -> str:

@@ -49,7 +49,8 @@ class BTFMaterialSettings(PropertyGroup):
         default="",
         # Blender 4.5+ warns about "//" paths unless the property says it supports them.
         options=compat.path_property_options(),
-        description="BTFbase material folder (or any file in it) or .btfm file; relative paths "
+        description="BTFbase material folder (or any file in it: text tables or binary.btf), "
+        "UBO2014 .btf, UBO2003/ATRIUM image set (zip or folder) or .btfm file; relative paths "
         "(//) are kept relative to the .blend so render farms find the data",
     )
     uv_map: StringProperty(

@@ -32,7 +32,11 @@ def add_device_argument(parser) -> None:
 
 def add_parsers(sub) -> None:
     p = sub.add_parser("info", help="describe a BTF (JSON)")
-    p.add_argument("path", help="BTFbase material directory or .btfm container")
+    p.add_argument(
+        "path",
+        help="BTFbase material folder or binary.btf, UBO2014 .btf, UBO2003/ATRIUM image set "
+        "(zip or folder), or .btfm container",
+    )
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("eval", help="evaluate a BTF at queries from a .npy file")
@@ -79,14 +83,34 @@ def add_parsers(sub) -> None:
     )
     p.set_defaults(func=cmd_synth, accepts_params=True)
 
-    p = sub.add_parser("convert", help="BTFbase directory (or container) → .btfm container")
+    p = sub.add_parser(
+        "convert",
+        help="any BTF (BTFbase folder or binary.btf, UBO2014 .btf, UBO2003/ATRIUM image set, "
+        ".btfm) → .btfm container, or → UBO2014 .btf (svd)",
+    )
     p.add_argument("src")
-    p.add_argument("dst", type=Path)
+    p.add_argument("dst", type=Path, help=".btfm (default) or .btf (UBO2014 DFMF)")
+    p.add_argument(
+        "--texels",
+        type=int,
+        default=None,
+        help="image sets: box-filter every image to N×N texels (a full UBO2003 set is 5 GB)",
+    )
+    p.add_argument(
+        "--rank",
+        type=int,
+        default=None,
+        help="store as the svd codec with N components per channel (dense sources; "
+        "prints the truncation error); implied (16) for a .btf output",
+    )
     p.set_defaults(func=cmd_convert)
 
 
-def _container_format(path: Path) -> str:
-    return "btfbase-mlvq-text" if path.is_dir() else "btfm-container-v1"
+def _container_format(path: Path, btf) -> str:
+    form = btf.meta.extra.get("btfbase_form")
+    if form:  # a BTFbase folder or binary.btf: which form was read
+        return f"btfbase-mlvq-{form}"
+    return btf.meta.extra.get("file_format", "btfm-container-v1")
 
 
 def cmd_info(args) -> int:
@@ -97,7 +121,7 @@ def cmd_info(args) -> int:
     on_disk = bytes_on_disk(path, btf)
     info = {
         "path": str(path),
-        "format": _container_format(path),
+        "format": _container_format(path, btf),
         "codec": meta.codec,
         "name": meta.name,
         "spatial_size": [meta.width, meta.height],
@@ -113,6 +137,8 @@ def cmd_info(args) -> int:
         "raw_bytes": meta.raw_bytes,
         "compression_ratio": (meta.raw_bytes / on_disk) if meta.raw_bytes else None,
     }
+    if "text_tables_error" in meta.extra:
+        info["text_tables_error"] = meta.extra["text_tables_error"]
     report = path / "quantreport.txt" if path.is_dir() else None
     if report and report.is_file():
         m = re.search(r"compressed quantized = (\d+)\s+ratio = ([\d.]+)", report.read_text())
@@ -355,6 +381,38 @@ def _with_suffix(path: Path) -> Path:
 
 
 def cmd_convert(args) -> int:
+    from ..core.image_sets import is_image_set, load_image_set
+    from ..core.svd_build import factorise
+    from ..core.ubo2014_writer import write_ubo2014
+
     memory.require(memory.btf_load(args.src))
-    write_container(_with_suffix(args.dst), load_btf(args.src))
+    src = Path(args.src)
+    if args.texels is not None and not 1 <= args.texels <= 4096:
+        raise BTFError(f"--texels must be between 1 and 4096, got {args.texels}")
+    if src.exists() and is_image_set(src) and not (src / "all_materialInfo.txt").exists():
+        btf = load_image_set(src, texels=args.texels)
+    else:
+        btf = load_btf(src)
+    to_btf = args.dst.suffix.lower() == ".btf"
+    rank = args.rank if args.rank is not None else (16 if to_btf else None)
+    if rank is not None and btf.meta.codec != "svd":
+        if btf.meta.codec != "dense":
+            raise BTFError(
+                f"--rank / .btf output factorises dense (tabulated or image-set) BTFs; this is "
+                f"{btf.meta.codec!r}"
+            )
+        if not 1 <= rank <= 1024:
+            raise BTFError(f"--rank must be between 1 and 1024, got {rank}")
+        btf, errors = factorise(
+            btf.data * np.pi,
+            btf.view_grid,
+            btf.light_grid,
+            ranks=(rank, rank, rank),
+            name=btf.meta.name,
+        )
+        print(json.dumps({"rank": rank, "relative_truncation_error_yuv": errors.tolist()}))
+    if to_btf:
+        write_ubo2014(args.dst, btf)
+    else:
+        write_container(_with_suffix(args.dst), btf)
     return 0

@@ -240,3 +240,12 @@ def files_of(directory: Path, name: str) -> list[Path]:
     ]
     own = [f"{name}_PDF6Dslices.txt", f"{name}_PDF6Dscale.txt"]
     return [directory / f for f in shared + own]
+
+
+def text_tables_complete(directory: Path) -> bool:
+    """Are all the material's text tables present (``binary.btf`` is the other form)?"""
+    try:
+        name = read_material_info(directory).name
+    except (BTFFormatError, UnsupportedBTFError):
+        return False
+    return all(f.is_file() for f in files_of(directory, name))

@@ -78,6 +78,10 @@ INT_HEADER: tuple[str, ...] = (
     "n_light_rings",
     "f_light_theta",
     "light_offsets",
+    # svd (shares width, height, n_lights and the dense ring-grid slots): an int table of
+    # (rank, U offset, SV offset) per channel, and the colour transform's 15 floats
+    "svd_channels",
+    "f_svd_colour",
 )
 
 #: Float header slots in order as (name, number of floats); device code names the first float

@@ -15,17 +15,21 @@ views of one drawer.
 from __future__ import annotations
 
 import itertools
+import logging
 from typing import Any
 
 import numpy as np
 
 from ..core.envmap import VirtualLights
+from ..core.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
 from ..core.packed import layout_stream, pack
 from ..render.progressive import ProgressiveState
 from ..scene.lights import pack_lights
 from ..scene.scene import Mesh, Scene
 from .device import ADD_LIGHTS, DEFAULT_STATE, DEPTH_PREPASS, Device, DrawState
 from .interface import BACKGROUND_SHADER, RESOLVE_SHADER, SURFACE_SHADER
+
+log = logging.getLogger(__name__)
 
 MAX_SIZE = 16384  # pixels per side: beyond any GPU's texture limit
 # Two triangles covering clip space: one fragment per pixel of the bound target.
@@ -170,6 +174,10 @@ class ProgressiveDrawer:
 
     # --- uploads ---------------------------------------------------------------------------
     def _upload_tables(self, btf) -> tuple[Any, Any]:
+        # Too large for the device's textures: a reduced-resolution copy, said in the log.
+        btf, note = fit_for_gpu(btf, getattr(self.device, "max_texture_size", MAX_TEXTURE_SIZE))
+        if note:
+            log.warning(note)
         packed = pack(btf)
         return self.device.texture(packed.ints), self.device.texture(packed.floats)
 

@@ -135,6 +135,7 @@ BTF_LIBRARIES = (
     "btf_colour_lib.glsl",
     "btf_mlvq_lib.glsl",
     "btf_dense_lib.glsl",
+    "btf_svd_lib.glsl",
     "btf_eval_lib.glsl",
 )
 

@@ -216,6 +216,8 @@ inline float3 dense_evaluate(Stream I, Stream F, float2 uv, float theta_i, float
   return sum;
 }
 
+#include "btf_svd.h"
+
 /* --- analytic and dispatch ---------------------------------------------------------------- */
 
 inline float ggx_lambda(float alpha2, float c)
@@ -242,6 +244,9 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   }
   if (codec == CODEC_DENSE) {
     return dense_evaluate(I, F, uv, theta_i, phi_i, theta_v, phi_v);
+  }
+  if (codec == CODEC_SVD) {
+    return svd_evaluate(I, F, uv, theta_i, phi_i, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
   }
   float3 albedo = (float3)(FTAB(F_ALBEDO), FTAB(F_ALBEDO + 1), FTAB(F_ALBEDO + 2));
   if (codec == CODEC_LAMBERTIAN) {

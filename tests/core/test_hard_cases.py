@@ -12,6 +12,7 @@ from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from btf_addon.core.dense import tabulate
 from btf_addon.core.microgeometry import woven
 from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.svd_build import factorise
 
 
 def _codecs():
@@ -22,6 +23,7 @@ def _codecs():
     yield "dense", lambda: tabulate(LambertianBTF(0.6))
     yield "woven", lambda: woven(texels=4, fine_per_texel=4)
     yield "mlvq", lambda: MLVQBTF.from_directory(shared_material("alu"))
+    yield "svd", lambda: factorise(tabulate(LambertianBTF(0.6)).data * np.pi, ranks=(2, 1, 1))[0]
 
 
 CODECS = dict(_codecs())

@@ -81,6 +81,7 @@ def test_defines_are_the_python_layout():
         "CODEC_GGX",
         "CODEC_DENSE",
         "CODEC_PRINCIPLED",
+        "CODEC_SVD",
     }
     assert len(set(codec_ids.values())) == len(codec_ids) and min(codec_ids.values()) > 0
     assert all(isinstance(v, int) for v in d.values())  # valid as -D and #define values
