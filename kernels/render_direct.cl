@@ -10,8 +10,11 @@
  * nothing is hit, as Blender), normal (world-space shading normal), uv (mesh UV). Rows
  * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands.
  *
- * Anti-aliasing (aa_samples > 1): Combined is the mean over aa_samples rays through the
- * subpixel offsets given (the pixel filter's low-discrepancy points, render/pixel_filter.py);
+ * Anti-aliasing (aa_samples > 1): Combined is the mean over aa_samples rays through points of
+ * the pixel filter's footprint: the R2 low-discrepancy points given (render/pixel_filter.py),
+ * rotated per pixel (Cranley-Patterson: the same pattern in every pixel would turn aliasing
+ * into a structured error instead of a falling one) and mapped through the filter's inverse
+ * CDF (include/btf_filter.h);
  * with split_lights the N lights are split into aa_samples consecutive blocks, one per
  * subpixel (the viewport's jittered passes do the same: same cost as one ray per pixel),
  * else every subpixel sees all N. The data passes stay at the pixel centre (a depth averaged
@@ -87,8 +90,8 @@ inline float3 shade_direct(const SurfacePoint *sp, __global const float *ints,
   return sum * material_params[8 * sp->material + 4];
 }
 
-/* Pixel (x, y) as the mean over aa_samples rays through the given subpixel offsets (pixels,
- * x right, y down); with split_lights subpixel s is lit by the s-th of aa_samples consecutive
+/* Pixel (x, y) as the mean over aa_samples rays through the filter's footprint at the given
+ * points in [0, 1)² (rotated per pixel); with split_lights subpixel s is lit by the s-th of aa_samples consecutive
  * blocks of the lights and weighs as many lights as its block holds. */
 inline float3 shade_subpixels(int x, int y, int width, int height,
                               __global const float *world_from_clip, int tri_count,
@@ -100,15 +103,20 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
                               int n_lights, float eps, __global const float *env, int env_w,
                               int env_h, float2 env_params, __global const float *scene_lights,
                               int scene_light_count, __global const float *subpixels,
-                              int aa_samples, int split_lights)
+                              int aa_samples, int split_lights, int filter_type,
+                              float filter_width)
 {
+  uint hash = pcg_hash((uint)(y * width + x) ^ 0x2545F491u); /* fixed: deterministic mode */
+  float2 rotation = (float2)((float)(hash >> 8), (float)(pcg_hash(hash) >> 8)) / 16777216.0f;
   float3 total = (float3)(0.0f);
   for (int s = 0; s < aa_samples; s++) {
     int first = split_lights ? s * n_lights / aa_samples : 0;
     int count = split_lights ? (s + 1) * n_lights / aa_samples - first : n_lights;
     float weight = split_lights ? (float)count / (float)max(n_lights, 1)
                                 : 1.0f / (float)aa_samples;
-    float2 raster = (float2)(x + 0.5f, y + 0.5f) + vload2(s, subpixels);
+    float2 u = vload2(s, subpixels) + rotation;
+    u -= floor(u);
+    float2 raster = (float2)(x + 0.5f, y + 0.5f) + filter_sample(filter_type, filter_width, u);
     float3 o, d;
     float t, bu, bv;
     int tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
@@ -137,7 +145,9 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             const int env_w, const int env_h, const float2 env_params,
                             __global const float *scene_lights, const int scene_light_count,
                             __global const float *subpixels, const int aa_samples,
-                            const int split_lights, __global float *combined, __global float *depth,
+                            const int split_lights, const int filter_type,
+                            const float filter_width, __global float *combined,
+                            __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
   int x = get_global_id(0), yr = get_global_id(1);
@@ -157,7 +167,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
                               corners, tri_material, ints, floats, material_offsets,
                               material_params, lights, n_lights, eps, env, env_w, env_h,
                               env_params, scene_lights, scene_light_count, subpixels, aa_samples,
-                              split_lights);
+                              split_lights, filter_type, filter_width);
     }
     vstore4((float4)(world, 1.0f), px, combined);
     depth[px] = 1e10f;
@@ -172,7 +182,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
           ? shade_subpixels(x, y, width, height, world_from_clip, tri_count, bounds, links,
                             corners, tri_material, ints, floats, material_offsets,
                             material_params, lights, n_lights, eps, env, env_w, env_h, env_params,
-                            scene_lights, scene_light_count, subpixels, aa_samples, split_lights)
+                            scene_lights, scene_light_count, subpixels, aa_samples, split_lights,
+                            filter_type, filter_width)
           : shade_direct(&sp, ints, floats, material_offsets, material_params, lights, 0,
                          n_lights, eps, bounds, links, corners, scene_lights, scene_light_count);
   vstore4((float4)(sum, 1.0f), px, combined);

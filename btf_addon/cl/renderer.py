@@ -24,7 +24,7 @@ import numpy as np
 from ..core.envmap import VirtualLights
 from ..core.packed import pack
 from ..render.launch import LaunchPlan
-from ..render.pixel_filter import FilterType, PixelFilter, subpixel_offsets
+from ..render.pixel_filter import FilterType, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
 from ..scene.bvh import build_bvh
 from ..scene.lights import pack_lights
@@ -157,6 +157,14 @@ class CLRenderer:
             self.scene_light_count,
         ]
 
+    def _film_args(self) -> list:
+        """The filter's kernel arguments (type, width); width 0: the pixel centre."""
+        film = self.film
+        return [
+            np.int32(film.kind.value if film else FilterType.BOX.value),
+            np.float32(film.width if film else 0.0),
+        ]
+
     def _world_from_clip(self):
         cam = self.scene.camera
         world_from_clip = np.linalg.inv(cam.clip_from_world(self.width / self.height))
@@ -223,8 +231,9 @@ class CLRenderer:
         split_lights: bool = True,
     ) -> RenderPasses:
         """All passes from exactly these lights (deterministic). With a film filter and
-        ``aa_samples`` > 1, Combined is the mean over that many subpixel positions of the
-        filter (``subpixel_offsets``; 1: the pixel centre); ``split_lights`` lights each
+        ``aa_samples`` > 1, Combined is the mean over that many positions in the filter's
+        footprint (R2 points rotated per pixel, through the filter's inverse CDF; 1: the pixel
+        centre); ``split_lights`` lights each
         subpixel with its own consecutive block of the lights (the cost of one ray per pixel;
         where there are fewer lights than subpixels every subpixel sees all of them), else each
         with all of them (``aa_samples`` times the cost). Depth, Normal and UV stay at the
@@ -237,9 +246,9 @@ class CLRenderer:
         head = [np.int32(w), np.int32(h)]
         n_lights = len(lights.pdf)
         aa = max(int(aa_samples), 1) if self.film is not None else 1
-        offsets = self._buffer(subpixel_offsets(self.film, aa).ravel(), np.float32)
+        points = self._buffer(r2_points(aa).ravel(), np.float32)  # rotated per pixel there
         split = bool(split_lights) and n_lights >= aa
-        film_args = [offsets, np.int32(aa), np.int32(split)]
+        film_args = [points, np.int32(aa), np.int32(split), *self._film_args()]
         tail_args = [lights_buf, np.int32(n_lights), self.eps, *self._env_args(), *film_args]
         wfc = self._world_from_clip()
 
@@ -281,11 +290,7 @@ class CLRenderer:
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
         world_args = [self.eps, *self._env_args(), *self.env_tables]
-        film = self.film
-        film_args = [  # width 0: the pixel centre
-            np.int32(film.kind.value if film else FilterType.BOX.value),
-            np.float32(film.width if film else 0.0),
-        ]
+        film_args = self._film_args()
 
         def launch(row0, band, first, count, buffers):
             self.kernel_mis(
