@@ -106,8 +106,13 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
                               int aa_samples, int split_lights, int filter_type,
                               float filter_width)
 {
-  uint hash = pcg_hash((uint)(y * width + x) ^ 0x2545F491u); /* fixed: deterministic mode */
-  float2 rotation = (float2)((float)(hash >> 8), (float)(pcg_hash(hash) >> 8)) / 16777216.0f;
+  /* Split lights: the same offsets in every pixel, in the viewport's order (its pass p adds
+   * block p at offset p), so F12 is the converged viewport's image. All lights per subpixel:
+   * rotated per pixel (fixed hash: still deterministic), so what remains is noise. */
+  uint hash = pcg_hash((uint)(y * width + x) ^ 0x2545F491u);
+  float2 rotation = split_lights ? (float2)(0.0f)
+                                 : (float2)((float)(hash >> 8), (float)(pcg_hash(hash) >> 8)) /
+                                       16777216.0f;
   float3 total = (float3)(0.0f);
   for (int s = 0; s < aa_samples; s++) {
     int first = split_lights ? s * n_lights / aa_samples : 0;

@@ -17,6 +17,7 @@ MODULES = (
     "import_btf",
     "engine",
     "ui",
+    "film_panel",  # after ui: below the BTF render panel
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",

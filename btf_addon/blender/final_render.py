@@ -31,7 +31,7 @@ from .preferences import preferred_device
 
 def render(engine, depsgraph) -> None:
     scene = depsgraph.scene
-    settings = RenderSettings.from_properties(scene.btf_render)
+    settings = RenderSettings.from_scene(scene)  # with the film filter of scene.cycles
     pct = scene.render.resolution_percentage / 100
     w = max(1, int(scene.render.resolution_x * pct))
     h = max(1, int(scene.render.resolution_y * pct))
@@ -51,7 +51,7 @@ def render(engine, depsgraph) -> None:
                 f"BTF | compiling the render kernels for {cl_context.device_name} "
                 "(first render with these scene features; cached afterwards)",
             )
-        renderer = CLRenderer(exported, w, h, cl_context, features)
+        renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
     except OpenCLCompileError as exc:
         # A bug in kernels/ or a driver rejecting valid code: falling back would hide it
         # behind a different image, so the render fails and says where the compiler stopped.
@@ -73,6 +73,10 @@ def render(engine, depsgraph) -> None:
         if sampled
         else f"{len(lights.pdf)} virtual lights"
     )
+    film = settings.film()
+    if film is not None:
+        aa = "" if sampled else f" × {settings.aa_samples} subpixels"
+        lighting += f", {film.type.replace('_', '-').title()} {film.width:g} px{aa}"
     stats = (
         f"BTF | OpenCL on {renderer.ctx.device_name} | {renderer.triangle_count} triangles, "
         f"{lighting}, {len(exported.lights)} Blender lights, "
@@ -113,7 +117,7 @@ def render(engine, depsgraph) -> None:
             preview=show,
         )
     else:
-        passes = renderer.render_direct(lights, progress)
+        passes = renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)
     bottom_first = {  # Blender's render buffers start at the bottom row
         "Combined": passes.combined,
         "Depth": passes.depth[..., None],

@@ -137,3 +137,12 @@ def subpixel_offsets(pixel_filter: PixelFilter | None, count: int) -> np.ndarray
     if pixel_filter is None:
         return np.zeros((count, 2), np.float32)
     return pixel_filter.sample(r2_points(count)).astype(np.float32)
+
+
+def subpixel_offset(pixel_filter: PixelFilter | None, index: int) -> tuple[float, float]:
+    """Offset ``index`` of ``subpixel_offsets`` alone (the viewport's jitter of one pass)."""
+    if pixel_filter is None:
+        return (0.0, 0.0)
+    u = np.mod(0.5 + index * np.array(R2_STEP), 1.0)
+    dx, dy = pixel_filter.sample(u)
+    return (float(dx), float(dy))
