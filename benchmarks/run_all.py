@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import platform
 
+import bench_aa
 import bench_bridge
 import bench_decode
 import bench_envmap
@@ -25,6 +26,7 @@ if __name__ == "__main__":
         bench_vr,
         bench_bridge,
         bench_final_render,
+        bench_aa,
         bench_wiimote,
     ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")

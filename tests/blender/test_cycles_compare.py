@@ -62,7 +62,9 @@ def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
     sun = bpy.data.objects.new("Sun", sun_data)
     scene.collection.objects.link(sun)
     sun.rotation_euler = (math.radians(35.0), 0.0, math.radians(30.0))
-    reference = cycles_reference(bpy, scene, tmp_path, 64, 0)
+    # A delta light: the only noise left is the film's, at silhouettes and the shadow's edge
+    # (at 64/16 samples that alone was 2.0 %; at 256 each it is well inside the bound).
+    reference = cycles_reference(bpy, scene, tmp_path, 256, 0)
     export = extension_submodule("btf_addon.blender.export")
     cl_renderer = extension_submodule("btf_addon.cl.renderer")
     cl_context = extension_submodule("btf_addon.cl.context")
@@ -70,9 +72,10 @@ def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
     assert len(exported.lights) == 1
     context = cl_context.create_context()
     renderer = cl_renderer.CLRenderer(exported, *SIZE, context)
-    ours = renderer.render_sampled(16, seed=1)[..., :3]
-    diff = ours - reference
-    assert float(np.sqrt(np.mean(diff**2)) / np.sqrt(np.mean(reference**2))) < 0.02
+    ours = renderer.render_sampled(256, seed=1)[..., :3]
+    error = relative_rmse(ours, reference)
+    print(f"sun: {error:.4f}")  # quoted in docs/accuracy.md (pytest -s)
+    assert error < 0.02
     # Both modes light the sun: at pixel centres the one deterministic sample equals them all.
     centres = cl_renderer.CLRenderer(exported, *SIZE, context, film=None)
     direct = centres.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
