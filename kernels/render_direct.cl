@@ -11,13 +11,12 @@
  * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands.
  *
  * Anti-aliasing (aa_samples > 1): Combined is the mean over aa_samples rays through points of
- * the pixel filter's footprint: the R2 low-discrepancy points given (render/pixel_filter.py),
- * rotated per pixel (Cranley-Patterson: the same pattern in every pixel would turn aliasing
- * into a structured error instead of a falling one) and mapped through the filter's inverse
- * CDF (include/btf_filter.h);
- * with split_lights the N lights are split into aa_samples consecutive blocks, one per
- * subpixel (the viewport's jittered passes do the same: same cost as one ray per pixel),
- * else every subpixel sees all N. The data passes stay at the pixel centre (a depth averaged
+ * the pixel filter's footprint: the R2 low-discrepancy points given (render/pixel_filter.py)
+ * mapped through the filter's inverse-CDF table (include/btf_filter.h). With split_lights the
+ * N lights are split into aa_samples consecutive blocks, one per subpixel, at the same offsets
+ * in every pixel: exactly the viewport's jittered passes. Else every subpixel sees all N, the
+ * points rotated per pixel (Cranley-Patterson: one pattern everywhere would leave a structured
+ * error instead of a falling one). The data passes stay at the pixel centre (a depth averaged
  * over an edge is no depth at all). */
 
 #ifndef HAS_SHADOWS
@@ -103,8 +102,8 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
                               int n_lights, float eps, __global const float *env, int env_w,
                               int env_h, float2 env_params, __global const float *scene_lights,
                               int scene_light_count, __global const float *subpixels,
-                              int aa_samples, int split_lights, int filter_type,
-                              float filter_width)
+                              int aa_samples, int split_lights,
+                              __global const float *filter_table)
 {
   /* Split lights: the same offsets in every pixel, in the viewport's order (its pass p adds
    * block p at offset p), so F12 is the converged viewport's image. All lights per subpixel:
@@ -121,7 +120,7 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
                                 : 1.0f / (float)aa_samples;
     float2 u = vload2(s, subpixels) + rotation;
     u -= floor(u);
-    float2 raster = (float2)(x + 0.5f, y + 0.5f) + filter_sample(filter_type, filter_width, u);
+    float2 raster = (float2)(x + 0.5f, y + 0.5f) + filter_sample(filter_table, u);
     float3 o, d;
     float t, bu, bv;
     int tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
@@ -150,8 +149,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             const int env_w, const int env_h, const float2 env_params,
                             __global const float *scene_lights, const int scene_light_count,
                             __global const float *subpixels, const int aa_samples,
-                            const int split_lights, const int filter_type,
-                            const float filter_width, __global float *combined,
+                            const int split_lights, __global const float *filter_table,
+                            __global float *combined,
                             __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
@@ -172,7 +171,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
                               corners, tri_material, ints, floats, material_offsets,
                               material_params, lights, n_lights, eps, env, env_w, env_h,
                               env_params, scene_lights, scene_light_count, subpixels, aa_samples,
-                              split_lights, filter_type, filter_width);
+                              split_lights, filter_table);
     }
     vstore4((float4)(world, 1.0f), px, combined);
     depth[px] = 1e10f;
@@ -188,7 +187,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             corners, tri_material, ints, floats, material_offsets,
                             material_params, lights, n_lights, eps, env, env_w, env_h, env_params,
                             scene_lights, scene_light_count, subpixels, aa_samples, split_lights,
-                            filter_type, filter_width)
+                            filter_table)
           : shade_direct(&sp, ints, floats, material_offsets, material_params, lights, 0,
                          n_lights, eps, bounds, links, corners, scene_lights, scene_light_count);
   vstore4((float4)(sum, 1.0f), px, combined);
@@ -259,8 +258,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *col_cdf, __global const float *row_pdf,
                              __global const float *col_pdf, const int first_sample,
                              const int samples, const uint seed,
-                             const int max_bounces, const int filter_type,
-                             const float filter_width, __global float *combined)
+                             const int max_bounces, const int filtered,
+                             __global const float *filter_table, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
   int y = row0 + yr;
@@ -270,10 +269,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   int px = yr * width + x;
   float3 o, d;
   float t, bu, bv;
-  /* Anti-aliasing (filter_width > 0): each sample's camera ray through its own point of the
+  /* Anti-aliasing (filtered): each sample's camera ray through its own point of the
    * pixel filter's footprint (include/btf_filter.h), drawn from a Sobol dimension of its own,
    * so the path's other decisions are those of the pixel-centre render. */
-  bool filtered = filter_width > 0.0f;
   int tri = filtered ? -1
                      : primary_hit(x, y, width, height, world_from_clip, tri_count, bounds,
                                    links, corners, &o, &d, &t, &bu, &bv);
@@ -295,7 +293,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     if (filtered) {
       Sampler film = {pixel_seed, index, FILM_DIMENSION, 0u};
       float2 raster = (float2)(x + 0.5f, y + 0.5f) +
-                      filter_sample(filter_type, filter_width, next_2d(&film));
+                      filter_sample(filter_table, next_2d(&film));
       tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
                            corners, &o, &d, &t, &bu, &bv);
       if (tri < 0) {

@@ -24,7 +24,7 @@ import numpy as np
 from ..core.envmap import VirtualLights
 from ..core.packed import pack
 from ..render.launch import LaunchPlan
-from ..render.pixel_filter import FilterType, PixelFilter, r2_points
+from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
 from ..scene.bvh import build_bvh
 from ..scene.lights import pack_lights
@@ -157,13 +157,12 @@ class CLRenderer:
             self.scene_light_count,
         ]
 
-    def _film_args(self) -> list:
-        """The filter's kernel arguments (type, width); width 0: the pixel centre."""
-        film = self.film
-        return [
-            np.int32(film.kind.value if film else FilterType.BOX.value),
-            np.float32(film.width if film else 0.0),
-        ]
+    def _filter_table(self):
+        """The film's inverse-CDF table (render/pixel_filter.py) as a buffer; zeros without a
+        film (every offset the pixel centre)."""
+        if self.film is None:
+            return self._buffer(np.zeros(FILTER_TABLE_SIZE), np.float32)
+        return self._buffer(self.film.table(), np.float32)
 
     def _world_from_clip(self):
         cam = self.scene.camera
@@ -248,7 +247,7 @@ class CLRenderer:
         aa = max(int(aa_samples), 1) if self.film is not None else 1
         points = self._buffer(r2_points(aa).ravel(), np.float32)  # rotated per pixel there
         split = bool(split_lights) and n_lights >= aa
-        film_args = [points, np.int32(aa), np.int32(split), *self._film_args()]
+        film_args = [points, np.int32(aa), np.int32(split), self._filter_table()]
         tail_args = [lights_buf, np.int32(n_lights), self.eps, *self._env_args(), *film_args]
         wfc = self._world_from_clip()
 
@@ -290,7 +289,7 @@ class CLRenderer:
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
         world_args = [self.eps, *self._env_args(), *self.env_tables]
-        film_args = self._film_args()
+        film_args = [np.int32(self.film is not None), self._filter_table()]
 
         def launch(row0, band, first, count, buffers):
             self.kernel_mis(

@@ -12,10 +12,11 @@ from the pixel centre in pixels, ``w`` = the filter width:
 - BLACKMAN_HARRIS: the 4-term window over |v| ≤ w (Cycles: its table spans 2 w), 1 at the
   centre, 6e−5 at the edge.
 
-The same inverse CDF (bisection on the closed-form CDF) is in ``kernels/include/btf_filter.h``;
-this module is its reference and gives the viewport's per-pass jitter and the Virtual Lights
-mode's subpixel positions (``subpixel_offsets``): the same low-discrepancy points (R2), so a
-converged viewport and an F12 with as many subpixels see the same footprint.
+The kernels read the inverse CDF as a table made here (``PixelFilter.table``, looked up in
+``kernels/include/btf_filter.h``, as Cycles does); this module also gives the viewport's
+per-pass jitter and the Virtual Lights mode's subpixel positions (``subpixel_offsets``): the
+same low-discrepancy points (R2), so a converged viewport and an F12 with as many subpixels
+see the same footprint.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ class FilterType(enum.Enum):
 # Blackman-Harris window coefficients (Cycles' filter_func_blackman_harris).
 BH = (0.35875, 0.48829, 0.14128, 0.01168)
 BISECTION_STEPS = 24  # 2^-24 of the radius: far below a float pixel coordinate's precision
+FILTER_TABLE_SIZE = 1025  # entries of the kernels' inverse-CDF table (btf_filter.h)
 
 
 @dataclass(frozen=True)
@@ -110,6 +112,13 @@ class PixelFilter:
             below = self.cdf(mid) < target
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
         return sign * 0.5 * (lo + hi)
+
+    def table(self, size: int = FILTER_TABLE_SIZE) -> np.ndarray:
+        """(size,) float32 inverse CDF of the half profile: entry i is the offset (pixels)
+        below which i / (size − 1) of its mass lies (0 … radius); the kernels' lookup
+        (kernels/include/btf_filter.h), as Cycles' filter table."""
+        u = 0.5 + 0.5 * np.linspace(0.0, 1.0, size)
+        return self.sample(np.minimum(u, 1.0 - 1e-12)).astype(np.float32)
 
     def footprint_weight(self, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
         """The normalised 2D filter f(dx)·f(dy) / (∫f)² at offsets in pixels."""
