@@ -118,7 +118,13 @@ class PixelFilter:
         below which i / (size − 1) of its mass lies (0 … radius); the kernels' lookup
         (kernels/include/btf_filter.h), as Cycles' filter table."""
         u = 0.5 + 0.5 * np.linspace(0.0, 1.0, size)
-        return self.sample(np.minimum(u, 1.0 - 1e-12)).astype(np.float32)
+        table = self.sample(np.minimum(u, 1.0 - 1e-12))
+        # The last cell holds the tail out to the support's end, where the CDF is flat: spread
+        # linearly to the radius it would put its 1/(size − 1) of the samples far out (Cycles'
+        # table does). Through its median instead, they stay where the tail's mass is.
+        median = float(self.sample(0.5 + 0.5 * (1.0 - 0.5 / (size - 1))))
+        table[-1] = min(table[-1], 2.0 * median - table[-2])
+        return table.astype(np.float32)
 
     def footprint_weight(self, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
         """The normalised 2D filter f(dx)·f(dy) / (∫f)² at offsets in pixels."""

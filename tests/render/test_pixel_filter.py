@@ -106,11 +106,11 @@ def test_settings_carry_the_film():
 @pytest.mark.parametrize("pixel_filter", FILTERS, ids=str)
 def test_the_kernels_table_is_the_inverse_cdf(pixel_filter, rng):
     """The kernels interpolate this table (btf_filter.h). Interpolated offsets follow the
-    profile as the exact ones do (the same chi-square bound as above), and all but the last
-    cell's 0.1 % agree with the exact inverse within 1 % of the radius: only that cell, where
-    the CDF flattens to the support's end, bends between entries (as in Cycles' table)."""
+    profile as the exact ones do (the same chi-square bound as above; a last entry at the
+    radius, as in Cycles' table, failed it by orders of magnitude for the Gaussian), and all but
+    the last cell's 0.1 % agree with the exact inverse within 1 % of the radius."""
     table = pixel_filter.table()
-    assert abs(table[0]) < 1e-6 and table[-1] == pytest.approx(pixel_filter.radius, rel=1e-3)
+    assert abs(table[0]) < 1e-6 and table[-1] <= pixel_filter.radius + 1e-6
     u = rng.random(200_000)
     level = np.abs(2 * u - 1) * (len(table) - 1)
     i = np.minimum(level.astype(int), len(table) - 2)
