@@ -26,9 +26,12 @@ def f12_and_reference(bpy, scene, tmp_path, engine="opencl"):
     w, h = scene.render.resolution_x, scene.render.resolution_y
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), w, h)
     lights = exported.environment.virtual_lights(scene.btf_render.lights_total)
-    if engine == "glsl":
+    if engine == "glsl":  # the fallback's passes of 16 lights, jittered by the film
         renderer = extension_submodule("btf_addon.gl.renderer")
-        return rendered, renderer.GLSLRenderer(exported, w, h).render(lights)
+        settings = extension_submodule("btf_addon.render.settings").RenderSettings
+        glsl = renderer.GLSLRenderer(exported, w, h)
+        glsl.view.jitter = settings.from_scene(scene).film()
+        return rendered, glsl.render(lights, per_pass=16)
     cl_renderer = extension_submodule("btf_addon.cl.renderer")
     cl_context = extension_submodule("btf_addon.cl.context")
     # F12 anti-aliases with Blender's default film and the scene's subpixel count.
