@@ -132,7 +132,7 @@ def test_a_4k_frame_keeps_memory_bounded(blends):
             "resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr))\n"
             f"sys.argv = ['btf_addon', 'render', '--blend', {str(blends / 'scale_1.blend')!r},"
             f" '-o', {str(out)!r}, '--resolution', {resolution!r}, '--lights', '1',"
-            " '--final-mode', 'virtual']\n"
+            " '--final-mode', 'virtual', '--filter', 'none']\n"
             "runpy.run_module('btf_addon', run_name='__main__')\n"
         )
         proc = run_python("-c", code)
