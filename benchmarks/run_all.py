@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import platform
 
+import bench_aa
 import bench_accuracy
 import bench_bridge
 import bench_decode
@@ -29,6 +30,7 @@ if __name__ == "__main__":
         bench_bridge,
         bench_final_render,
         bench_mapping,
+        bench_aa,
         bench_wiimote,
         bench_formats,
         bench_accuracy,  # last: it rewrites its section of docs/accuracy.md

@@ -8,7 +8,16 @@
  * Passes written per pixel: combined (RGBA), depth (distance along the camera axis from the
  * camera, camera_forward.w = −dot(camera position, forward); 1e10 where
  * nothing is hit, as Blender), normal (world-space shading normal), uv (mesh UV). Rows
- * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands. */
+ * [row0, row0 + rows) are rendered, so the host can show progress and stop between bands.
+ *
+ * Anti-aliasing (aa_samples > 1): Combined is the mean over aa_samples rays through points of
+ * the pixel filter's footprint: the R2 low-discrepancy points given (render/pixel_filter.py)
+ * mapped through the filter's inverse-CDF table (include/btf_filter.h). With split_lights the
+ * N lights are split into aa_samples consecutive blocks, one per subpixel, at the same offsets
+ * in every pixel: exactly the viewport's jittered passes. Else every subpixel sees all N, the
+ * points rotated per pixel (Cranley-Patterson: one pattern everywhere would leave a structured
+ * error instead of a falling one). The data passes stay at the pixel centre (a depth averaged
+ * over an edge is no depth at all). */
 
 #ifndef HAS_SHADOWS
 #define HAS_SHADOWS 1
@@ -20,6 +29,7 @@
 #include "btf_surface.h"
 #include "btf_lights.h"
 #include "btf_sampling.h"
+#include "btf_filter.h"
 
 
 inline float3 env_lookup(__global const float *env, int w, int h, float2 params, float3 d)
@@ -40,6 +50,91 @@ inline float3 env_lookup(__global const float *env, int w, int h, float2 params,
   return ((c00 * (1 - ax) + c10 * ax) * (1 - ay) + (c01 * (1 - ax) + c11 * ax) * ay) * params.y;
 }
 
+/* Combined of one surface point lit by lights [first, first + count) (their mean) and Blender's
+ * lights, times the material's exposure. */
+inline float3 shade_direct(const SurfacePoint *sp, __global const float *ints,
+                           __global const float *floats, __global const int *material_offsets,
+                           __global const float *material_params, __global const float *lights,
+                           int first, int count, float eps, __global const float *bounds,
+                           __global const int *links, __global const float *corners,
+                           __global const float *scene_lights, int scene_light_count)
+{
+  __global const float *I = ints + material_offsets[2 * sp->material];
+  __global const float *F = floats + material_offsets[2 * sp->material + 1];
+  float3 sum = (float3)(0.0f);
+  if (sp->wo.z > 0.0f) {
+    for (int i = first; i < first + count; i++) {
+      float3 dir = vload3(0, lights + 8 * i);
+      float3 wi = to_frame(sp, dir);
+      if (wi.z <= 0.0f) {
+        continue;
+      }
+#if HAS_SHADOWS
+      float ts, us, vs;
+      if (trace(sp->start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
+        continue;
+      }
+#endif
+      sum += btf_mapped(I, F, sp, wi) * vload3(0, lights + 8 * i + 4);
+    }
+  }
+  sum /= (float)max(count, 1);
+  if (sp->wo.z > 0.0f) {
+    sum += blender_lights(sp, I, F, scene_lights, scene_light_count, eps, bounds, links, corners,
+                          0);
+  }
+  return sum * sp->exposure;
+}
+
+/* Pixel (x, y) as the mean over aa_samples rays through the filter's footprint at the given
+ * points in [0, 1)² (rotated per pixel); with split_lights subpixel s is lit by the s-th of aa_samples consecutive
+ * blocks of the lights and weighs as many lights as its block holds. */
+inline float3 shade_subpixels(int x, int y, int width, int height,
+                              __global const float *world_from_clip, int tri_count,
+                              __global const float *bounds, __global const int *links,
+                              __global const float *corners, __global const int *tri_material,
+                              __global const float *ints, __global const float *floats,
+                              __global const int *material_offsets,
+                              __global const float *material_params, __global const float *lights,
+                              int n_lights, float eps, __global const float *env, int env_w,
+                              int env_h, float2 env_params, __global const float *scene_lights,
+                              int scene_light_count, __global const float *subpixels,
+                              int aa_samples, int split_lights,
+                              __global const float *filter_table)
+{
+  /* Split lights: the same offsets in every pixel, in the viewport's order (its pass p adds
+   * block p at offset p), so F12 is the converged viewport's image. All lights per subpixel:
+   * rotated per pixel (fixed hash: still deterministic), so what remains is noise. */
+  uint hash = pcg_hash((uint)(y * width + x) ^ 0x2545F491u);
+  float2 rotation = split_lights ? (float2)(0.0f)
+                                 : (float2)((float)(hash >> 8), (float)(pcg_hash(hash) >> 8)) /
+                                       16777216.0f;
+  float3 total = (float3)(0.0f);
+  for (int s = 0; s < aa_samples; s++) {
+    int first = split_lights ? s * n_lights / aa_samples : 0;
+    int count = split_lights ? (s + 1) * n_lights / aa_samples - first : n_lights;
+    float weight = split_lights ? (float)count / (float)max(n_lights, 1)
+                                : 1.0f / (float)aa_samples;
+    float2 u = vload2(s, subpixels) + rotation;
+    u -= floor(u);
+    float2 raster = (float2)(x + 0.5f, y + 0.5f) + filter_sample(filter_table, u);
+    float3 o, d;
+    float t, bu, bv;
+    int tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
+                             corners, &o, &d, &t, &bu, &bv);
+    if (tri < 0) {
+      total += weight * env_lookup(env, env_w, env_h, env_params, d);
+      continue;
+    }
+    SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material,
+                                    material_params, eps);
+    total += weight * shade_direct(&sp, ints, floats, material_offsets, material_params, lights,
+                                   first, count, eps, bounds, links, corners, scene_lights,
+                                   scene_light_count);
+  }
+  return total;
+}
+
 __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *world_from_clip, const float4 camera_forward,
                             const int tri_count, __global const float *bounds,
@@ -50,7 +145,10 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             const int n_lights, const float eps, __global const float *env,
                             const int env_w, const int env_h, const float2 env_params,
                             __global const float *scene_lights, const int scene_light_count,
-                            __global float *combined, __global float *depth,
+                            __global const float *subpixels, const int aa_samples,
+                            const int split_lights, __global const float *filter_table,
+                            __global float *combined,
+                            __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
   int x = get_global_id(0), yr = get_global_id(1);
@@ -64,7 +162,15 @@ __kernel void render_direct(const int width, const int height, const int row0,
   int tri = primary_hit(x, y, width, height, world_from_clip, tri_count, bounds, links, corners,
                         &o, &d, &t, &bu, &bv);
   if (tri < 0) {
-    vstore4((float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f), px, combined);
+    float3 world = env_lookup(env, env_w, env_h, env_params, d);
+    if (aa_samples > 1) { /* an edge may still cross the filter's footprint */
+      world = shade_subpixels(x, y, width, height, world_from_clip, tri_count, bounds, links,
+                              corners, tri_material, ints, floats, material_offsets,
+                              material_params, lights, n_lights, eps, env, env_w, env_h,
+                              env_params, scene_lights, scene_light_count, subpixels, aa_samples,
+                              split_lights, filter_table);
+    }
+    vstore4((float4)(world, 1.0f), px, combined);
     depth[px] = 1e10f;
     vstore3((float3)(0.0f), px, normal_out);
     vstore2((float2)(0.0f), px, uv_out);
@@ -72,31 +178,15 @@ __kernel void render_direct(const int width, const int height, const int row0,
   }
   SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
                                   eps);
-  __global const float *I = ints + material_offsets[2 * sp.material];
-  __global const float *F = floats + material_offsets[2 * sp.material + 1];
-  float3 sum = (float3)(0.0f);
-  if (sp.wo.z > 0.0f) {
-    for (int i = 0; i < n_lights; i++) {
-      float3 dir = vload3(0, lights + 8 * i);
-      float3 wi = to_frame(&sp, dir);
-      if (wi.z <= 0.0f) {
-        continue;
-      }
-#if HAS_SHADOWS
-      float ts, us, vs;
-      if (trace(sp.start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
-        continue;
-      }
-#endif
-      sum += btf_mapped(I, F, &sp, wi) * vload3(0, lights + 8 * i + 4);
-    }
-  }
-  sum /= (float)max(n_lights, 1);
-  if (sp.wo.z > 0.0f) {
-    sum += blender_lights(&sp, I, F, scene_lights, scene_light_count, eps, bounds, links, corners,
-                          0);
-  }
-  sum *= sp.exposure;
+  float3 sum =
+      aa_samples > 1
+          ? shade_subpixels(x, y, width, height, world_from_clip, tri_count, bounds, links,
+                            corners, tri_material, ints, floats, material_offsets,
+                            material_params, lights, n_lights, eps, env, env_w, env_h, env_params,
+                            scene_lights, scene_light_count, subpixels, aa_samples, split_lights,
+                            filter_table)
+          : shade_direct(&sp, ints, floats, material_offsets, material_params, lights, 0,
+                         n_lights, eps, bounds, links, corners, scene_lights, scene_light_count);
   vstore4((float4)(sum, 1.0f), px, combined);
   depth[px] = dot(sp.p, camera_forward.xyz) + camera_forward.w; /* distance along the camera axis */
   vstore3(sp.n, px, normal_out);
@@ -149,6 +239,9 @@ inline float env_pdf(__global const float *row_pdf, __global const float *col_pd
   return row_pdf[row] * col_pdf[row * w + col] * w * h / (2.0f * M_PI_F * M_PI_F * sin_t);
 }
 
+/* The Sobol dimension of the film's 2D point: far beyond any path's own decisions. */
+#define FILM_DIMENSION 0xFFFFu
+
 __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *world_from_clip, const int tri_count,
                              __global const float *bounds, __global const int *links,
@@ -162,7 +255,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *col_cdf, __global const float *row_pdf,
                              __global const float *col_pdf, const int first_sample,
                              const int samples, const uint seed,
-                             const int max_bounces, __global float *combined)
+                             const int max_bounces, const int filtered,
+                             __global const float *filter_table, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
   int y = row0 + yr;
@@ -172,14 +266,20 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   int px = yr * width + x;
   float3 o, d;
   float t, bu, bv;
-  int tri = primary_hit(x, y, width, height, world_from_clip, tri_count, bounds, links, corners,
-                        &o, &d, &t, &bu, &bv);
-  if (tri < 0) {
+  /* Anti-aliasing (filtered): each sample's camera ray through its own point of the
+   * pixel filter's footprint (include/btf_filter.h), drawn from a Sobol dimension of its own,
+   * so the path's other decisions are those of the pixel-centre render. */
+  int tri = filtered ? -1
+                     : primary_hit(x, y, width, height, world_from_clip, tri_count, bounds,
+                                   links, corners, &o, &d, &t, &bu, &bv);
+  if (!filtered && tri < 0) {
     vstore4((float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f), px, combined);
     return;
   }
-  SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
-                                  eps);
+  SurfacePoint sp;
+  if (!filtered) {
+    sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
+  }
   float rotation = env_params.x;
   uint pixel_seed = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
@@ -187,6 +287,18 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     uint index = (uint)(first_sample + si); /* a sample's points depend only on its index */
     Sampler smp = {pixel_seed, index, 0u, pcg_hash(pixel_seed + index)};
     SurfacePoint cur = sp;
+    if (filtered) {
+      Sampler film = {pixel_seed, index, FILM_DIMENSION, 0u};
+      float2 raster = (float2)(x + 0.5f, y + 0.5f) +
+                      filter_sample(filter_table, next_2d(&film));
+      tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
+                           corners, &o, &d, &t, &bu, &bv);
+      if (tri < 0) {
+        sum += env_lookup(env, env_w, env_h, env_params, d);
+        continue;
+      }
+      cur = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
+    }
     float3 throughput = (float3)(1.0f);
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
       __global const float *I = ints + material_offsets[2 * cur.material];

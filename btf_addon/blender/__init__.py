@@ -23,6 +23,7 @@ MODULES = (
     "panels",  # Blender's own panels for this engine, by what it honours
     "file_handler",
     "accuracy_operator",  # after ui: its panel is a child of BTF_PT_render_settings
+    "film_panel",  # after ui: below the BTF render panel
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",

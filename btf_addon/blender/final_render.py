@@ -73,7 +73,7 @@ def render_region(render, w: int, h: int) -> Region:
 def render(engine, depsgraph) -> None:
     global last_device
     scene = depsgraph.scene
-    settings = RenderSettings.from_properties(scene.btf_render)
+    settings = RenderSettings.from_scene(scene)  # with the film filter of scene.cycles
     w, h = frame_size(scene.render)
     region = render_region(scene.render, w, h)
     transparent = scene.render.film_transparent
@@ -99,7 +99,7 @@ def render(engine, depsgraph) -> None:
                 f"BTF | compiling the render kernels for {cl_context.device_name} "
                 "(first render with these scene features; cached afterwards)",
             )
-        renderer = CLRenderer(exported, w, h, cl_context, features)
+        renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
     except OpenCLCompileError as exc:
         # A bug in kernels/ or a driver rejecting valid code: falling back would hide it
         # behind a different image, so the render fails and says where the compiler stopped.
@@ -127,6 +127,10 @@ def render(engine, depsgraph) -> None:
         if sampled
         else f"{len(lights.pdf)} virtual lights"
     )
+    film = settings.film()
+    if film is not None:
+        aa = "" if sampled else f" × {settings.aa_samples} subpixels"
+        lighting += f", {film.type.replace('_', '-').title()} {film.width:g} px{aa}"
     stats = (
         f"BTF | OpenCL on {renderer.ctx.device_name} | {renderer.triangle_count} triangles, "
         f"{lighting}, {len(exported.lights)} Blender lights, "
@@ -171,7 +175,7 @@ def render(engine, depsgraph) -> None:
             preview=show,
         )
     else:
-        passes = renderer.render_direct(lights, progress)
+        passes = renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)
     combined = passes.combined
     if transparent:
         combined = transparent_film(combined, passes.depth >= MISS_DEPTH)

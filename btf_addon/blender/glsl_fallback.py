@@ -35,6 +35,7 @@ def render_glsl(
         view.set_lights(frame_lights(settings, exported, cam.world_from_camera[:3, 2]), BATCH)
         state = view.state
         engine.update_stats("", f"BTF | {len(exported.meshes)} meshes, {state.total} lights")
+        view.jitter = settings.film()  # each pass at the film filter's next subpixel offset
         drawer.restart(view, cam.clip_from_world(w / h), cam.shader_vector())
         while drawer.add_batch(view):
             engine.update_progress(state.done / state.total)

@@ -62,7 +62,9 @@ class BTFRenderSettings(PropertyGroup):
     final_mode: EnumProperty(
         name="Final Render",
         items=enum_items(FINAL_MODE_LABELS),
-        default=FinalMode.VIRTUAL.name,
+        # Sampled converges to the true image; Virtual Lights stays for previews that match
+        # the viewport. Files saved before this default keep 'VIRTUAL' (settings versioning).
+        default=FinalMode.SAMPLED.name,
     )
     max_bounces: IntProperty(
         name="Max Bounces",
@@ -77,6 +79,20 @@ class BTFRenderSettings(PropertyGroup):
         min=1,
         max=65536,
         description="Samples per pixel of the Sampled final render",
+    )
+    use_antialiasing: BoolProperty(
+        name="Anti-Aliasing",
+        default=True,
+        description="Spread each pixel's samples over the film's pixel filter (Film panel); "
+        "off traces every ray through the pixel centre, as files made before it",
+    )
+    aa_samples: IntProperty(
+        name="Anti-Aliasing Samples",
+        default=16,
+        min=1,
+        max=1024,
+        description="Virtual Lights final render: rays per pixel spread over the pixel filter, "
+        "the N lights split between them (about the cost of one ray per pixel)",
     )
     seed: IntProperty(
         name="Seed",

@@ -60,7 +60,7 @@ def view_draw(engine, context, depsgraph) -> None:
     state = _state(engine)
     region, rv3d = context.region, context.region_data
     scene = depsgraph.scene
-    settings = RenderSettings.from_properties(scene.btf_render)
+    settings = RenderSettings.from_scene(scene)  # with the film filter (jitter per pass)
     size = (region.width, region.height)
     if state.scene_dirty or state.drawer is None:
         try:
@@ -88,6 +88,7 @@ def view_draw(engine, context, depsgraph) -> None:
         settings.lights_per_redraw,
         settings.progressive,
         settings.seed,
+        settings.film(),
     )
     if state.view is None or state.view.size != size:
         state.free_buffers()
@@ -97,6 +98,7 @@ def view_draw(engine, context, depsgraph) -> None:
     if key != state.view_key:
         per_pass = settings.lights_per_redraw if settings.progressive else settings.lights_total
         view.set_lights(frame_lights(settings, drawer.scene, world_from_view[:3, 2]), per_pass)
+        view.jitter = settings.film()  # subpixel offset per pass: anti-aliased once converged
         drawer.restart(view, clip_from_world, camera)
         state.view_key = key
     drawer.add_batch(view)

@@ -146,7 +146,7 @@ class XRPreview:
         depsgraph = self.source.depsgraph()
         scene = depsgraph.scene
         vr = VRSettings.from_properties(scene.btf_vr)
-        settings = replace(RenderSettings.from_properties(scene.btf_render), progressive=True)
+        settings = replace(RenderSettings.from_scene(scene), progressive=True)
         settings = replace(settings, lights_total=vr.lights_total)
         clip_from_view = np.asarray(clip_from_view, dtype=np.float64)
         view_from_world = np.asarray(view_from_world, dtype=np.float64)
@@ -165,7 +165,7 @@ class XRPreview:
         if drawer is None:
             return
         eye.drawn, restarted = eye.image.advance(
-            drawer, size, settings, clip_from_view, view_from_world, k
+            drawer, size, settings, clip_from_view, view_from_world, k, not vr.show_world
         )
         if restarted:
             eye.gaze_material = self._gaze_material(depsgraph, np.linalg.inv(view_from_world))

@@ -6,6 +6,11 @@ area-light code only where the scene analysis says they can matter (scene/analys
 compiled as ``-D`` variants and cached. Work goes in launches sized by measured cost
 (render/launch.py plans them), so progress is reported and a cancel honoured at any sample
 count; device memory holds one band of passes at a time.
+
+Anti-aliasing follows the film's pixel filter (render/pixel_filter.py; Blender's default,
+Blackman-Harris 1.5 px, unless told otherwise; ``film=None``: every ray through the pixel
+centre, the images of before): the Sampled mode places each sample in the filter's footprint
+by importance sampling; the Virtual Lights mode takes ``aa_samples`` subpixel positions.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import numpy as np
 from ..core.envmap import VirtualLights
 from ..core.packed import pack
 from ..render.launch import LaunchPlan
+from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
 from ..scene.bvh import build_bvh
 from ..scene.lights import pack_lights
@@ -28,6 +34,7 @@ from .programs import build_program
 
 KERNELS = "render_direct.cl"  # both final-render kernels
 LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
+DEFAULT_FILM = PixelFilter()  # Blender's default film: Blackman-Harris, 1.5 px
 
 
 @dataclass
@@ -48,11 +55,13 @@ class CLRenderer:
         height: int,
         cl_context: CLContext,
         features: SceneFeatures | None = None,
+        film: PixelFilter | None = DEFAULT_FILM,
     ):
         import pyopencl as cl
 
         self.cl = cl
         self.scene, self.width, self.height, self.ctx = scene, width, height, cl_context
+        self.film = film
         self.features = features or analyse(scene)
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, self.features.defines()
@@ -148,6 +157,13 @@ class CLRenderer:
             self.scene_light_count,
         ]
 
+    def _filter_table(self):
+        """The film's inverse-CDF table (render/pixel_filter.py) as a buffer; zeros without a
+        film (every offset the pixel centre)."""
+        if self.film is None:
+            return self._buffer(np.zeros(FILTER_TABLE_SIZE), np.float32)
+        return self._buffer(self.film.table(), np.float32)
+
     def _world_from_clip(self):
         cam = self.scene.camera
         world_from_clip = np.linalg.inv(cam.clip_from_world(self.width / self.height))
@@ -207,16 +223,32 @@ class CLRenderer:
         return images()
 
     def render_direct(
-        self, lights: VirtualLights, progress: Callable[[float], bool] | None = None
+        self,
+        lights: VirtualLights,
+        progress: Callable[[float], bool] | None = None,
+        aa_samples: int = 1,
+        split_lights: bool = True,
     ) -> RenderPasses:
-        """All passes from exactly these lights (deterministic)."""
+        """All passes from exactly these lights (deterministic). With a film filter and
+        ``aa_samples`` > 1, Combined is the mean over that many positions in the filter's
+        footprint (R2 points rotated per pixel, through the filter's inverse CDF; 1: the pixel
+        centre); ``split_lights`` lights each
+        subpixel with its own consecutive block of the lights (the cost of one ray per pixel;
+        where there are fewer lights than subpixels every subpixel sees all of them), else each
+        with all of them (``aa_samples`` times the cost). Depth, Normal and UV stay at the
+        pixel centre."""
         w, h = self.width, self.height
         cam = self.scene.camera
         axis = -cam.world_from_camera[:3, 2]
         forward = np.array([*axis, -float(axis @ cam.position)], dtype=np.float32)
         lights_buf = self._buffer(lights.packed().ravel(), np.float32)
         head = [np.int32(w), np.int32(h)]
-        tail_args = [lights_buf, np.int32(len(lights.pdf)), self.eps, *self._env_args()]
+        n_lights = len(lights.pdf)
+        aa = max(int(aa_samples), 1) if self.film is not None else 1
+        points = self._buffer(r2_points(aa).ravel(), np.float32)  # rotated per pixel there
+        split = bool(split_lights) and n_lights >= aa
+        film_args = [points, np.int32(aa), np.int32(split), self._filter_table()]
+        tail_args = [lights_buf, np.int32(n_lights), self.eps, *self._env_args(), *film_args]
         wfc = self._world_from_clip()
 
         def launch(row0, band, _first, _count, buffers):
@@ -249,12 +281,15 @@ class CLRenderer:
         ``max_bounces`` indirect reflections (none where the scene analysis finds no surface
         that can see another), Russian roulette after the second. Samples are rendered in
         progressive passes (``preview`` sees each); the result does not depend on how they
-        were split (each sample's random points depend only on its index)."""
+        were split (each sample's random points depend only on its index). With a film
+        filter each sample's camera ray goes through its own point of the filter's footprint,
+        drawn with the filter's distribution (the mean converges to the filtered image)."""
         w, h = self.width, self.height
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
         world_args = [self.eps, *self._env_args(), *self.env_tables]
+        film_args = [np.int32(self.film is not None), self._filter_table()]
 
         def launch(row0, band, first, count, buffers):
             self.kernel_mis(
@@ -271,6 +306,7 @@ class CLRenderer:
                 np.int32(count),
                 np.uint32(seed),
                 np.int32(bounces),
+                *film_args,
                 *buffers,
             )
 

@@ -21,6 +21,7 @@ from ..core import memory
 from ..core.errors import BTFError
 from ..gl.stereo_capture import LAYOUTS, capture_profile
 from ..render.headsets import PROFILES, profile
+from ..render.pixel_filter import FilterType, PixelFilter
 from ..render.settings import FinalMode, Lighting, RenderSettings
 
 #: Output suffix → Blender image settings: 8-bit RGBA PNG (through the view transform) or
@@ -102,6 +103,14 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--seed", type=_at_least(0), metavar="N", help="randomisation of lights and samples' points"
+    )
+    p.add_argument(
+        "--filter",
+        type=_pixel_filter,
+        default=False,  # not given: the scene's film (None is "none": pixel centres)
+        metavar="TYPE:WIDTH",
+        help="the film's pixel filter (scene.cycles), e.g. blackman_harris:1.5, gaussian:1.5, "
+        "box:1; 'none' traces every ray through the pixel centre",
     )
     p.add_argument(
         "--device",
@@ -210,6 +219,20 @@ def _lighting(text: str) -> Lighting:
             "(was envmap)"
         )
     return _enum_choice(Lighting)(text)
+
+
+def _pixel_filter(text: str) -> PixelFilter | None:
+    """``TYPE:WIDTH`` (Cycles' filter identifiers, any case) or ``none``."""
+    if text.lower() == "none":
+        return None
+    kind, _, width = text.partition(":")
+    try:
+        return PixelFilter(kind.upper(), float(width or 1.5))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected TYPE:WIDTH with TYPE one of "
+            f"{', '.join(t.name.lower() for t in FilterType)} and a width ≥ 0 px, or none"
+        ) from exc
 
 
 def _removed_engine(_text: str):
@@ -380,6 +403,8 @@ def prepare_scene(scene, args) -> RenderSettings:
     _check_ranges(scene.btf_render, given)
     settings = RenderSettings.from_properties(scene.btf_render).with_overrides(**given)
     settings.to_properties(scene.btf_render)
+    if args.filter is not False:
+        _apply_filter(scene, args.filter)
     if args.resolution is not None:
         scene.render.resolution_x, scene.render.resolution_y = args.resolution
         scene.render.resolution_percentage = 100
@@ -391,6 +416,18 @@ def prepare_scene(scene, args) -> RenderSettings:
     scene.render.filepath = str(args.output.resolve())
     scene.render.use_file_extension = False  # exactly the path given
     return settings
+
+
+def _apply_filter(scene, pixel_filter) -> None:
+    """--filter: the film's filter where F12 reads it (scene.cycles), or anti-aliasing off."""
+    if pixel_filter is None:
+        scene.btf_render.use_antialiasing = False
+        return
+    cycles = getattr(scene, "cycles", None)
+    if cycles is None or not hasattr(cycles, "pixel_filter_type"):
+        raise BTFError("--filter needs the Cycles add-on (the film's filter lives on it)")
+    scene.btf_render.use_antialiasing = True
+    cycles.pixel_filter_type, cycles.filter_width = pixel_filter.type, pixel_filter.width
 
 
 #: RenderSettings fields the flags set, by flag (for messages).

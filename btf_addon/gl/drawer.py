@@ -6,6 +6,17 @@ its accumulation target; then per call, a batch of K virtual lights added on the
 surface (depth test EQUAL, additive blending); the resolve divides the sum by the lights added
 so far where a surface was drawn and shows the World elsewhere (shaders/resolve_frag.glsl).
 
+Anti-aliasing (a view's ``jitter``: the film's pixel filter): batch i is drawn with the
+projection moved by the filter's i-th subpixel offset (render/pixel_filter.py, R2 points
+through the filter's inverse CDF; batch 0 at the pixel centre), as EEVEE's temporal
+anti-aliasing does. Each jittered batch is drawn whole into a scratch target — the World
+through the same offset × the batch's light count, its own depth pre-pass, the surfaces' light
+sums replacing the World where they are — and added to the accumulation, so the resolve's
+division mixes surfaces and World by coverage. A view resolved over a transparent background
+(``jitter_world`` False) gets no World there: its silhouettes darken by their coverage. The
+accumulation converges to the filtered image: F12's Virtual Lights mode with the lights split
+over as many subpixels renders exactly it (same offsets, same order).
+
 The drawer holds what belongs to the scene (programs, BTF tables, vertex buffers, the World,
 Blender's lights); a ``ViewAccumulation`` holds what belongs to one view (its targets, its
 virtual lights, its progress, the camera its accumulation was started with). Two eyes are two
@@ -23,6 +34,7 @@ import numpy as np
 from ..core.envmap import VirtualLights
 from ..core.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
 from ..core.packed import layout_stream, pack
+from ..render.pixel_filter import PixelFilter, subpixel_offset
 from ..render.progressive import ProgressiveState
 from ..scene.lights import pack_lights
 from ..scene.scene import Mesh, Scene
@@ -30,6 +42,13 @@ from .device import ADD_LIGHTS, DEFAULT_STATE, DEPTH_PREPASS, Device, DrawState
 from .interface import BACKGROUND_SHADER, RESOLVE_SHADER, SURFACE_SHADER
 
 log = logging.getLogger(__name__)
+
+# A jittered batch added onto the accumulation: every pixel, no depth.
+ADD_BATCH = DrawState(depth_write=False, blend="ADD")
+# The World behind a jittered batch: no depth written, so the pre-pass still sees "far".
+WORLD_UNDER = DrawState(depth_write=False)
+# A jittered batch's lights over that World: the nearest surface (one per pixel) replaces it.
+REPLACE_LIGHTS = DrawState(depth_test="EQUAL", depth_write=False)
 
 MAX_SIZE = 16384  # pixels per side: beyond any GPU's texture limit
 # Two triangles covering clip space: one fragment per pixel of the bound target.
@@ -51,7 +70,9 @@ class ViewAccumulation:
     ``lights`` is the virtual-light texture; ``clip_from_world`` ((4, 4) float64) and ``camera``
     ((4,) float64, shaders/surface_frag.glsl) are those of the running accumulation, fixed by
     ``ProgressiveDrawer.restart``: every batch must repeat the pre-pass's exact transform for the
-    depth test EQUAL to pass.
+    depth test EQUAL to pass. ``jitter`` (a ``PixelFilter``, None: every batch at the pixel
+    centre) and ``jitter_world`` (add the World where a jittered batch saw no surface) are read
+    at every batch: change them, then restart. ``batches``: batches added since the restart.
     """
 
     def __init__(self, device: Device, width: int, height: int, output_format: str = "RGBA32F"):
@@ -65,6 +86,10 @@ class ViewAccumulation:
         self.lights: Any = None
         self.clip_from_world: np.ndarray | None = None
         self.camera: np.ndarray | None = None
+        self.jitter: PixelFilter | None = None
+        self.jitter_world = True
+        self.batches = 0
+        self.scratch: Any = None  # one jittered batch (RGBA32F + depth), made on first use
 
     @property
     def size(self) -> tuple[int, int]:
@@ -86,8 +111,10 @@ class ViewAccumulation:
         return self.device.read(self.output)
 
     def release(self) -> None:
-        self.device.release(self.background, self.accumulation, self.output, self.lights)
-        self.background = self.accumulation = self.output = self.lights = None
+        self.device.release(
+            self.background, self.accumulation, self.output, self.lights, self.scratch
+        )
+        self.background = self.accumulation = self.output = self.lights = self.scratch = None
 
 
 class ProgressiveDrawer:
@@ -234,7 +261,9 @@ class ProgressiveDrawer:
             )
         with device.bound(view.accumulation):
             device.clear((0.0, 0.0, 0.0, 0.0))
-            self._draw_surfaces(view, 0, 0, DEPTH_PREPASS)
+            if view.jitter is None:  # jittered batches bring their own depth
+                self._draw_surfaces(view, 0, 0, DEPTH_PREPASS)
+        view.batches = 0
         if view.state is not None:
             view.state.restart()
 
@@ -245,11 +274,61 @@ class ProgressiveDrawer:
         if view.clip_from_world is None:
             raise RuntimeError("restart the view first")
         first, count = view.state.next_batch()
-        if count:
+        if count and view.jitter is not None:
+            self._add_jittered_batch(view, first, count)
+        elif count:
             with self.device.bound(view.accumulation):
                 self._draw_surfaces(view, first, count, ADD_LIGHTS)
+        if count:
             view.state.advance(count)
+            view.batches += 1
         return count
+
+    def _add_jittered_batch(self, view: ViewAccumulation, first: int, count: int) -> None:
+        """Lights [first, first + count) seen through the view's next subpixel offset, added
+        to the accumulation (module docstring)."""
+        device = self.device
+        dx, dy = subpixel_offset(view.jitter, view.batches)  # pixels, x right, y down
+        w, h = view.size
+        # Sampling at +offset is drawing the image moved by −offset: NDC x by −2dx/w, and
+        # NDC y (up) by +2dy/h; in clip space x' = x + ox·w, whatever the projection.
+        clip_from_clip = np.eye(4)
+        clip_from_clip[0, 3], clip_from_clip[1, 3] = -2.0 * dx / w, 2.0 * dy / h
+        jittered = clip_from_clip @ view.clip_from_world
+        if view.scratch is None:
+            view.scratch = device.target(w, h, "RGBA32F", depth=True)
+        with device.bound(view.scratch):
+            device.clear((0.0, 0.0, 0.0, 0.0))
+            if view.jitter_world:  # the World through the same offset, × the batch's lights
+                env = self.scene.environment
+                device.set_state(WORLD_UNDER)
+                device.draw(
+                    self.background_program,
+                    self.quad_background,
+                    {
+                        "world_from_clip": np.linalg.inv(jittered),
+                        "viewport_size": view.size,
+                        "env_params": (env.rotation_z_rad, float(count)),
+                    },
+                    {"environment": self.env_tex},
+                )
+            self._draw_surfaces(view, 0, 0, DEPTH_PREPASS, jittered)
+            self._draw_surfaces(view, first, count, REPLACE_LIGHTS, jittered)
+        # The resolve shader copies the batch (÷ 1); where neither a surface nor the World was
+        # drawn (transparent) it adds nothing.
+        params = (1.0, 0.0 if view.jitter_world else 1.0, 0.0, 0.0)
+        with device.bound(view.accumulation):
+            device.set_state(ADD_BATCH)
+            device.draw(
+                self.resolve_program,
+                self.quad_resolve,
+                {"resolve_params": params},
+                {
+                    "accumulation": device.target_texture(view.scratch),
+                    "background": device.target_texture(view.background),
+                },
+            )
+            device.set_state(DEFAULT_STATE)
 
     def resolve(self, view: ViewAccumulation) -> None:
         """Draw ``view``'s image so far into its output target."""
@@ -284,8 +363,17 @@ class ProgressiveDrawer:
         if state != DEFAULT_STATE:
             device.set_state(DEFAULT_STATE)
 
-    def _draw_surfaces(self, view: ViewAccumulation, first: int, count: int, state: DrawState):
+    def _draw_surfaces(
+        self,
+        view: ViewAccumulation,
+        first: int,
+        count: int,
+        state: DrawState,
+        clip_from_world: np.ndarray | None = None,
+    ):
         device = self.device
+        if clip_from_world is None:
+            clip_from_world = view.clip_from_world
         lights = view.lights if view.lights is not None else self.no_lights
         device.set_state(state)
         try:
@@ -294,7 +382,7 @@ class ProgressiveDrawer:
                 material = self.scene.materials[material_index]
                 ints, floats = self.tables[material_index]
                 uniforms = {
-                    "clip_from_world": view.clip_from_world,
+                    "clip_from_world": clip_from_world,
                     "camera": view.camera,
                     "material_block": (block, 0.0, 0.0, 0.0),  # row in material_blocks
                     "light_range": (first, count, 2.0**material.exposure, len(self.scene.lights)),

@@ -4,7 +4,10 @@
 Per frame: a view of the eye's size (a new one when the size changes), the virtual lights of
 the render settings (new when the settings, the scene's drawer or — for the headlight — the
 view direction change), a restart when the eye's matrices moved beyond
-``HEAD_STILL_TOLERANCE`` (a tracked head is never exactly still), then the frame's K lights.
+``HEAD_STILL_TOLERANCE`` (a tracked head is never exactly still) or the film changed, then the
+frame's K lights. With anti-aliasing on (the settings' film filter) each frame's batch is drawn
+at the next subpixel offset (gl/drawer.py): a still head converges to an anti-aliased eye
+within the same K-lights budget — the frame budget measures the jittered batches' cost too.
 """
 
 from __future__ import annotations
@@ -32,10 +35,12 @@ class EyeAccumulation:
         clip_from_view: np.ndarray,
         view_from_world: np.ndarray,
         k: int,
+        transparent: bool = False,
     ) -> tuple[int, bool]:
         """Add this frame's ``k`` (≥ 1) lights for the eye seen through ``clip_from_view`` and
-        ``view_from_world`` ((4, 4) each) at ``size`` pixels. Returns (lights added, whether
-        the image was started over)."""
+        ``view_from_world`` ((4, 4) each) at ``size`` pixels. ``transparent``: the eye is
+        resolved over a transparent background (no World in its jittered batches). Returns
+        (lights added, whether the image was started over)."""
         size = tuple(size)
         if self.view is None or self.view.size != size:
             self.release()
@@ -50,9 +55,14 @@ class EyeAccumulation:
         if lights_key != self._lights_key:
             view.set_lights(frame_lights(settings, drawer.scene, towards_viewer), k)
             self._lights_key = lights_key
+        film = settings.film()
+        film_changed = (view.jitter, view.jitter_world) != (film, not transparent)
+        view.jitter, view.jitter_world = film, not transparent
         clip_from_world = clip_from_view @ view_from_world
-        restarted = view.clip_from_world is None or view_moved(
-            view.clip_from_world, clip_from_world, HEAD_STILL_TOLERANCE
+        restarted = (
+            film_changed
+            or view.clip_from_world is None
+            or view_moved(view.clip_from_world, clip_from_world, HEAD_STILL_TOLERANCE)
         )
         if restarted:
             drawer.restart(view, clip_from_world, [*world_from_view[:3, 3], 1.0])

@@ -8,6 +8,11 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, fields, replace
 
+from .pixel_filter import PixelFilter
+
+#: Fields that live on the scene's film (``scene.cycles``), not on ``scene.btf_render``.
+FILM_FIELDS = ("pixel_filter", "filter_width")
+
 
 class Lighting(enum.Enum):
     """Where the light comes from."""
@@ -31,10 +36,24 @@ class RenderSettings:
     lights_per_redraw: int = 5  # K lights added per viewport redraw
     progressive: bool = True
     lighting: Lighting = Lighting.ENVIRONMENT
-    final_mode: FinalMode = FinalMode.VIRTUAL
+    # F12 converges to the true image by default; Virtual Lights stays for viewport-matching
+    # previews (docs/accuracy.md measures both). Files saved before it keep 'VIRTUAL'.
+    final_mode: FinalMode = FinalMode.SAMPLED
     max_bounces: int = 4
     samples: int = 64  # samples per pixel of the Sampled final render
     seed: int = 0
+    # Anti-aliasing: samples spread over the pixel filter's footprint (F12 and the viewport's
+    # per-pass jitter). False: every ray through the pixel centre, as files saved before it.
+    use_antialiasing: bool = True
+    aa_samples: int = 16  # subpixel positions of the Virtual Lights F12 (lights split over them)
+    pixel_filter: str = "BLACKMAN_HARRIS"  # scene.cycles.pixel_filter_type where Cycles is on
+    filter_width: float = 1.5  # pixels, scene.cycles.filter_width
+
+    def film(self) -> PixelFilter | None:
+        """The pixel filter the samples follow; None: pixel centres (anti-aliasing off)."""
+        if not self.use_antialiasing:
+            return None
+        return PixelFilter(self.pixel_filter, self.filter_width)
 
     @property
     def sampled(self) -> bool:
@@ -46,14 +65,30 @@ class RenderSettings:
     def from_properties(cls, props) -> RenderSettings:
         """From any object with the same attribute names (``scene.btf_render``); enum
         properties arrive as their identifiers."""
-        values = {f.name: getattr(props, f.name) for f in fields(cls)}
+        values = {f.name: getattr(props, f.name) for f in fields(cls) if f.name not in FILM_FIELDS}
         values["lighting"] = Lighting[values["lighting"]]
         values["final_mode"] = FinalMode[values["final_mode"]]
         return cls(**values)
 
+    @classmethod
+    def from_scene(cls, scene) -> RenderSettings:
+        """``scene.btf_render`` plus the film filter Cycles keeps on ``scene.cycles`` (when the
+        Cycles add-on is enabled; else Blender's default, Blackman-Harris 1.5 px)."""
+        settings = cls.from_properties(scene.btf_render)
+        cycles = getattr(scene, "cycles", None)
+        filter_type = getattr(cycles, "pixel_filter_type", None)
+        if filter_type is None:
+            return settings
+        return settings.with_overrides(
+            pixel_filter=str(filter_type), filter_width=float(cycles.filter_width)
+        )
+
     def to_properties(self, props) -> None:
-        """Write every value onto ``props`` (enums as their identifiers)."""
+        """Write every value onto ``props`` (enums as their identifiers; the film filter stays
+        on the scene's film)."""
         for f in fields(self):
+            if f.name in FILM_FIELDS:
+                continue
             value = getattr(self, f.name)
             setattr(props, f.name, value.name if isinstance(value, enum.Enum) else value)
 

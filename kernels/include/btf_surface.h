@@ -22,11 +22,13 @@ typedef struct {
   float map_w[3];
 } SurfacePoint;
 
-/* Pixel (x, y), row 0 at the top → ray through the pixel centre, from the near plane. */
-inline void camera_ray(int x, int y, int width, int height, __global const float *world_from_clip,
-                       float3 *o, float3 *d)
+/* Raster position (x, y) in pixels (row 0 at the top, (x + ½, y + ½) the centre of pixel
+ * (x, y)) → ray through it, from the near plane. Anti-aliasing moves the position inside the
+ * pixel filter's footprint (include/btf_filter.h); the centre gives the images of before. */
+inline void camera_ray_at(float2 raster, int width, int height,
+                          __global const float *world_from_clip, float3 *o, float3 *d)
 {
-  float2 ndc = (float2)((x + 0.5f) / width * 2.0f - 1.0f, 1.0f - (y + 0.5f) / height * 2.0f);
+  float2 ndc = (float2)(raster.x / width * 2.0f - 1.0f, 1.0f - raster.y / height * 2.0f);
   float4 m0 = vload4(0, world_from_clip), m1 = vload4(1, world_from_clip);
   float4 m2 = vload4(2, world_from_clip), m3 = vload4(3, world_from_clip); /* rows */
   float4 pn = (float4)(ndc, -1.0f, 1.0f), pf = (float4)(ndc, 1.0f, 1.0f);
@@ -36,16 +38,28 @@ inline void camera_ray(int x, int y, int width, int height, __global const float
   *d = normalize(far_h.xyz / far_h.w - *o);
 }
 
-/* The camera ray of pixel (x, y) and its nearest triangle (-1 where only the World is seen). */
+/* The ray through raster position ``raster`` and its nearest triangle (-1 where only the World
+ * is seen). */
+inline int primary_hit_at(float2 raster, int width, int height,
+                          __global const float *world_from_clip, int tri_count,
+                          __global const float *bounds, __global const int *links,
+                          __global const float *corners, float3 *o, float3 *d, float *t, float *bu,
+                          float *bv)
+{
+  camera_ray_at(raster, width, height, world_from_clip, o, d);
+  *t = *bu = *bv = 0.0f;
+  return tri_count > 0 ? trace(*o, *d, 0.0f, INFINITY, bounds, links, corners, false, t, bu, bv)
+                       : -1;
+}
+
+/* The same through the centre of pixel (x, y). */
 inline int primary_hit(int x, int y, int width, int height, __global const float *world_from_clip,
                        int tri_count, __global const float *bounds, __global const int *links,
                        __global const float *corners, float3 *o, float3 *d, float *t, float *bu,
                        float *bv)
 {
-  camera_ray(x, y, width, height, world_from_clip, o, d);
-  *t = *bu = *bv = 0.0f;
-  return tri_count > 0 ? trace(*o, *d, 0.0f, INFINITY, bounds, links, corners, false, t, bu, bv)
-                       : -1;
+  return primary_hit_at((float2)(x + 0.5f, y + 0.5f), width, height, world_from_clip, tri_count,
+                        bounds, links, corners, o, d, t, bu, bv);
 }
 
 /* Box projection's tangent along `along_u` in the plane of n, bitangent towards `along_v`

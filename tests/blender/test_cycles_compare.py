@@ -1,6 +1,7 @@
 """The OpenCL final render's Monte Carlo mode against Blender Cycles, a renderer nobody here
 wrote: direct lighting (max_bounces 0 on both sides) and with interreflection (2 bounces on both
-sides). Both at pixel centres (Cycles filter width 0.01), both with the World from the bundled
+sides). Both with Blender's default film filter (Blackman-Harris 1.5 px: our CLRenderer's
+default, importance-sampled per sample as Cycles does), both with the World from the bundled
 forest.exr."""
 
 from __future__ import annotations
@@ -46,7 +47,10 @@ def test_matches_cycles(bpy_module, fresh_scene, tmp_path, kind, ground, bounces
     # over the image must agree much more tightly than the per-pixel RMSE.
     print(f"{kind}: {rel_rmse:.4f}")  # quoted in docs/accuracy.md (pytest -s)
     assert rel_rmse < bound, rel_rmse
-    np.testing.assert_allclose(ours.mean(axis=(0, 1)), reference.mean(axis=(0, 1)), rtol=0.01)
+    # The dielectric's layering differs from Cycles' at grazing views (above): with the film
+    # filter those silhouette pixels weigh into the mean too (measured 1.01 % in blue).
+    rtol = 0.02 if kind == "principled-dielectric" else 0.01
+    np.testing.assert_allclose(ours.mean(axis=(0, 1)), reference.mean(axis=(0, 1)), rtol=rtol)
 
 
 def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
@@ -61,18 +65,26 @@ def test_sun_light_matches_cycles(bpy_module, fresh_scene, tmp_path):
     sun = bpy.data.objects.new("Sun", sun_data)
     scene.collection.objects.link(sun)
     sun.rotation_euler = (math.radians(35.0), 0.0, math.radians(30.0))
-    reference = cycles_reference(bpy, scene, tmp_path, 64, 0)
+    # A delta light: the only noise left is the film's, at silhouettes and the shadow's edge
+    # (at 64/16 samples that alone was 2.0 %; at 256 each it is well inside the bound).
+    reference = cycles_reference(bpy, scene, tmp_path, 256, 0)
     export = extension_submodule("btf_addon.blender.export")
     cl_renderer = extension_submodule("btf_addon.cl.renderer")
     cl_context = extension_submodule("btf_addon.cl.context")
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), *SIZE)
     assert len(exported.lights) == 1
-    renderer = cl_renderer.CLRenderer(exported, *SIZE, cl_context.create_context())
-    ours = renderer.render_sampled(4, seed=1)[..., :3]
-    direct = renderer.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
-    diff = ours - reference
-    assert float(np.sqrt(np.mean(diff**2)) / np.sqrt(np.mean(reference**2))) < 0.02
-    np.testing.assert_allclose(direct, ours, rtol=1e-4, atol=1e-5)  # both modes light the sun
+    context = cl_context.create_context()
+    renderer = cl_renderer.CLRenderer(exported, *SIZE, context)
+    ours = renderer.render_sampled(256, seed=1)[..., :3]
+    error = relative_rmse(ours, reference)
+    print(f"sun: {error:.4f}")  # quoted in docs/accuracy.md (pytest -s)
+    assert error < 0.02
+    # Both modes light the sun: at pixel centres the one deterministic sample equals them all.
+    centres = cl_renderer.CLRenderer(exported, *SIZE, context, film=None)
+    direct = centres.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
+    np.testing.assert_allclose(
+        direct, centres.render_sampled(4, seed=1)[..., :3], rtol=1e-4, atol=1e-5
+    )
     assert reference.max() > 0.1  # lit, with a shadow on the ground
 
 
@@ -103,7 +115,8 @@ def test_blender_lights_match_cycles(bpy_module, fresh_scene, tmp_path, kind):
     np.testing.assert_allclose(ours.mean(axis=(0, 1)), reference.mean(axis=(0, 1)), rtol=0.01)
     # The deterministic mode lights from fixed points (an area light's 4 × 4 cell centres):
     # exact for delta lights, close for the area light.
-    direct = renderer.render_direct(exported.environment.virtual_lights(1)).combined[..., :3]
+    lights = exported.environment.virtual_lights(1)
+    direct = renderer.render_direct(lights, aa_samples=64).combined[..., :3]
     error = relative_rmse(direct, reference)
     print(f"{kind}: deterministic {error:.4f}")
     assert error < (0.03 if kind == "AREA" else 0.02)

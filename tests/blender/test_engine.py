@@ -19,19 +19,24 @@ from btf_addon.core.imageio import read_exr
 
 
 def f12_and_reference(bpy, scene, tmp_path, engine="opencl"):
+    scene.btf_render.final_mode = "VIRTUAL"  # deterministic: the reference can be exact
     bpy.ops.render.render(write_still=True)
     rendered = read_exr(tmp_path / "f12.exr")
     export = extension_submodule("btf_addon.blender.export")
     w, h = scene.render.resolution_x, scene.render.resolution_y
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), w, h)
     lights = exported.environment.virtual_lights(scene.btf_render.lights_total)
-    if engine == "glsl":
+    if engine == "glsl":  # the fallback's passes of 16 lights, jittered by the film
         renderer = extension_submodule("btf_addon.gl.renderer")
-        return rendered, renderer.GLSLRenderer(exported, w, h).render(lights)
+        settings = extension_submodule("btf_addon.render.settings").RenderSettings
+        glsl = renderer.GLSLRenderer(exported, w, h)
+        glsl.view.jitter = settings.from_scene(scene).film()
+        return rendered, glsl.render(lights, per_pass=16)
     cl_renderer = extension_submodule("btf_addon.cl.renderer")
     cl_context = extension_submodule("btf_addon.cl.context")
+    # F12 anti-aliases with Blender's default film and the scene's subpixel count.
     passes = cl_renderer.CLRenderer(exported, w, h, cl_context.create_context()).render_direct(
-        lights
+        lights, aa_samples=scene.btf_render.aa_samples
     )
     return rendered, passes.combined[..., :3]
 
@@ -280,6 +285,7 @@ def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
     write_container(tmp_path / "white.btfm", LambertianBTF(0.7))
     scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "white.btfm")
     scene.btf_render.lights_total = 512
+    scene.btf_render.final_mode = "VIRTUAL"
     bpy_module.ops.render.render(write_still=True)
     virtual = read_exr(tmp_path / "f12.exr")
     scene.btf_render.final_mode = "SAMPLED"

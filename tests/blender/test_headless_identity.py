@@ -56,6 +56,7 @@ world.node_tree.links.new(
 scene.world = world
 scene.btf_render.lights_total = 7
 scene.btf_render.seed = 3
+scene.btf_render.final_mode = "VIRTUAL"
 """
 
 SAMPLED = """

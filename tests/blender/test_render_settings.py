@@ -15,6 +15,8 @@ def test_defaults_equal_the_blender_property_defaults(bpy_module, installed):
     props = bpy_module.types.Scene.bl_rna.properties["btf_render"].fixed_type.properties
     defaults = settings.RenderSettings()
     names = [f.name for f in fields(defaults)]
+    # The film filter lives on the scene's film (scene.cycles), not on btf_render.
+    names = [name for name in names if name not in settings.FILM_FIELDS]
     assert set(names) == {p.identifier for p in props} - {"rna_type", "name"}
     for name in names:
         value = getattr(defaults, name)
@@ -34,6 +36,8 @@ def test_a_fresh_scene_reads_back_as_the_defaults(bpy_module, fresh_scene):
     settings = extension_submodule("btf_addon.render.settings")
     props = fresh_scene.btf_render
     assert settings.RenderSettings.from_properties(props) == settings.RenderSettings()
+    # With Cycles on, its default film is Blender's: the same as ours without it.
+    assert settings.RenderSettings.from_scene(fresh_scene) == settings.RenderSettings()
     changed = settings.RenderSettings(
         lights_total=7,
         seed=3,

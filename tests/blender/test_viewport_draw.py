@@ -68,8 +68,8 @@ def lit_scene(bpy, tmp_path):
 
 def test_viewport_draws_what_the_standalone_renderer_draws(bpy_module, fresh_scene, tmp_path):
     """Blender's gpu pipeline (the viewport, K lights per redraw until converged) against the
-    standalone moderngl renderer (all lights in one pass) on the same exported scene, seen from
-    the scene camera's matrices, with the same virtual lights."""
+    standalone moderngl renderer (the same batches) on the same exported scene, seen from
+    the scene camera's matrices, with the same virtual lights and the same jitter per batch."""
     import mathutils
 
     bpy = bpy_module
@@ -105,8 +105,9 @@ def test_viewport_draws_what_the_standalone_renderer_draws(bpy_module, fresh_sce
     settings = settings_module.RenderSettings.from_properties(scene.btf_render)
     lights = lighting.frame_lights(settings, exported, cam.world_from_camera[:3, 2])
     standalone = renderer.GLSLRenderer(exported, w, h)
+    standalone.view.jitter = settings.film()  # the same subpixel offset per batch of 7
     try:
-        reference = standalone.render(lights)
+        reference = standalone.render(lights, per_pass=7)
     finally:
         standalone.release()  # leaves no OpenGL context current:
         init_gpu_module(bpy)  # a render makes Blender's current again (its exit needs one)

@@ -36,6 +36,9 @@ def vr_scene(bpy_module, fresh_scene, tmp_path):
     vr = scene.btf_vr
     vr.lights_mode, vr.lights_per_frame, vr.lights_total = "FIXED", 7, 24
     vr.show_hud = False
+    # Pixel centres: the eyes are compared with the standalone drawer's unjittered image
+    # (the jitter per frame is tested in tests/gl/test_antialiasing.py).
+    scene.btf_render.use_antialiasing = False
     return scene
 
 

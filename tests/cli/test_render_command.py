@@ -13,14 +13,16 @@ from btf_addon.core.imageio import read_exr, srgb8_from_linear
 
 def test_demo_renders_a_png_and_reports_timing(tmp_path):
     out = tmp_path / "demo.png"
-    proc = run_cli("render", "--demo", "-o", out, "--resolution", "96x54", "--lights", "8")
+    virtual = ("--final-mode", "virtual")  # deterministic: PNG and EXR of the same image
+    args = ("render", "--demo", "--resolution", "96x54", "--lights", "8", *virtual)
+    proc = run_cli(*args, "-o", out)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "96x54 with 8 virtual lights" in proc.stdout and " s -> " in proc.stdout
     # The demo's Standard view without dither: the PNG is the sRGB curve of the linear render.
     # Blender's OpenColorIO rounds a value within 1/255 of a code boundary either way, where
     # core.imageio rounds to nearest: at most 1 code apart, on under 1 % of the pixels.
     exr = tmp_path / "demo.exr"
-    run_cli("render", "--demo", "-o", exr, "--resolution", "96x54", "--lights", "8")
+    run_cli(*args, "-o", exr)
     png = read_png(out)
     assert png.shape == (54, 96, 4) and np.all(png[..., 3] == 255)
     diff = np.abs(png[..., :3].astype(int) - srgb8_from_linear(read_exr(exr)).astype(int))
@@ -35,7 +37,8 @@ def test_without_opencl_the_cli_falls_back_like_f12(tmp_path):
     # existing empty folder is not enough: pyopencl's bundled vendors folder is still read).
     empty = tmp_path / "no-icd-here"
     out, reference = tmp_path / "glsl.exr", tmp_path / "cl.exr"
-    args = ("render", "--demo", "--resolution", "96x54", "--lights", "8", "-o")
+    args = ("render", "--demo", "--resolution", "96x54", "--lights", "8")
+    args += ("--final-mode", "virtual", "-o")
     proc = run_cli(*args, out, env=cli_env(OCL_ICD_VENDORS=str(empty)))
     assert "OpenCL unavailable" in proc.stdout and "GLSL viewport path" in proc.stdout
     run_cli(*args, reference)
@@ -79,6 +82,8 @@ def test_blend_with_relative_btf_path_and_missing_uvs(tmp_path):
         "40x30",
         "--lights",
         "64",
+        "--final-mode",
+        "virtual",
         cwd=tmp_path.parent,
     )
     assert "has no UV map" in proc.stdout  # the engine's warning, printed by Blender

@@ -88,7 +88,8 @@ def render(blends, name: str, *extra) -> np.ndarray:
 
 
 @pytest.mark.parametrize(
-    "lighting", [["--lights", "16"], ["--final-mode", "sampled", "--samples", "4"]]
+    "lighting",
+    [["--final-mode", "virtual", "--lights", "16"], ["--final-mode", "sampled", "--samples", "4"]],
 )
 def test_hard_scenes_render_finite(blends, lighting):
     images = {name: render(blends, name, *lighting) for name in CASES}
@@ -130,7 +131,8 @@ def test_a_4k_frame_keeps_memory_bounded(blends):
             "atexit.register(lambda: print('peak_kb', resource.getrusage("
             "resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr))\n"
             f"sys.argv = ['btf_addon', 'render', '--blend', {str(blends / 'scale_1.blend')!r},"
-            f" '-o', {str(out)!r}, '--resolution', {resolution!r}, '--lights', '1']\n"
+            f" '-o', {str(out)!r}, '--resolution', {resolution!r}, '--lights', '1',"
+            " '--final-mode', 'virtual', '--filter', 'none']\n"
             "runpy.run_module('btf_addon', run_name='__main__')\n"
         )
         proc = run_python("-c", code)

@@ -174,7 +174,7 @@ def test_monte_carlo_mode_converges_to_the_virtual_light_integral(cl_context, rn
 
     env = Environment(rng.gamma(0.6, 1.0, size=(32, 64, 3)), rotation_z_rad=0.4)
     scene = sphere_scene(btf, env)
-    renderer = CLRenderer(scene, 48, 36, cl_context)
+    renderer = CLRenderer(scene, 48, 36, cl_context, film=None)  # both at pixel centres
     sampled = renderer.render_sampled(2048, seed=5)[..., :3]
     virtual = renderer.render_direct(env.virtual_lights(8192)).combined[..., :3]
     assert rel_rmse(sampled, virtual) < 0.03

@@ -36,3 +36,14 @@ def test_sampled_only_under_the_world():
     assert not RenderSettings(final_mode=FinalMode.VIRTUAL).sampled
     headlight = RenderSettings(final_mode=FinalMode.SAMPLED, lighting=Lighting.HEADLIGHT)
     assert not headlight.sampled  # one deterministic light: rendered as Virtual Lights
+
+
+def test_the_film_filter_comes_from_the_scenes_cycles_settings():
+    props = SimpleNamespace()
+    RenderSettings().to_properties(props)
+    assert not hasattr(props, "pixel_filter")  # kept on the scene's film, not btf_render
+    plain = SimpleNamespace(btf_render=props)  # no Cycles add-on: Blender's default film
+    assert RenderSettings.from_scene(plain) == RenderSettings()
+    cycles = SimpleNamespace(pixel_filter_type="GAUSSIAN", filter_width=2.5)
+    settings = RenderSettings.from_scene(SimpleNamespace(btf_render=props, cycles=cycles))
+    assert (settings.pixel_filter, settings.filter_width) == ("GAUSSIAN", 2.5)
