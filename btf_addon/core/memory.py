@@ -159,16 +159,28 @@ QUERY_ROW_BYTES = 200
 EVAL_CHUNK_BYTES = 160 * MIB
 
 
+#: Peak bytes per byte of a BTFbase ``binary.btf`` (the file, its tables as float32) and of a
+#: UBO2014 ``.btf`` (half factors → float32, and the codec's own copy); bounds, with margin,
+#: of what the fuzz tests trace (tests/core/test_fuzz_readers.py).
+BINARY_BTF_FACTOR = 8
+UBO2014_FACTOR = 8
+
+
 def btf_load(path: str | Path) -> Estimate:
     """Loading a BTF: a BTFbase folder's text tables are parsed whole (bytes, tokens, float64:
     ~12 bytes per byte of the largest file, plus every table as arrays); a .btfm container is
-    read whole and viewed (its size, plus one copy a codec may make)."""
+    read whole and viewed (its size, plus one copy a codec may make); ``binary.btf`` and UBO2014
+    ``.btf`` files are widened to float32 (their factors above)."""
     path = Path(path)
     if path.is_dir():  # the text tables only: a folder may hold images, reports, archives
         sizes = [p.stat().st_size for p in path.glob("*.txt") if p.is_file()]
         peak = 12 * max(sizes, default=0) + 2 * sum(sizes)
+        binary = path / "binary.btf"  # read when the text tables are incomplete
+        if binary.is_file():  # its bytes, and its 8-bit tables widened to float32 (4×)
+            peak = max(peak, BINARY_BTF_FACTOR * binary.stat().st_size)
     elif path.is_file():
-        peak = 2 * path.stat().st_size
+        factor = UBO2014_FACTOR if path.suffix.lower() == ".btf" else 2
+        peak = factor * path.stat().st_size
     else:
         peak = 0
     return Estimate(f"loading {path}", peak)

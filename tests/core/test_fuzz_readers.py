@@ -29,10 +29,12 @@ from btf_addon.cli.main import main
 from btf_addon.core import container, memory
 from btf_addon.core.analytic import LambertianBTF, PrincipledBTF
 from btf_addon.core.dense import tabulate
-from btf_addon.core.grid import uniform_ring_grid
+from btf_addon.core.grid import UBO2003, uniform_ring_grid
 from btf_addon.core.imageio import write_exr
 from btf_addon.core.microgeometry import leather
 from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.svd_build import factorise
+from btf_addon.core.ubo2014_writer import write_ubo2014
 
 #: Seconds one case may take before it counts as a hang (the slowest valid read here, the
 #: BTFbase text of alu under tracemalloc, takes about 1 s).
@@ -104,9 +106,35 @@ def mutate_text(path: Path, rng: np.random.Generator) -> None:
 
 # --- BTFbase text ------------------------------------------------------------------------
 def btfbase_seed(folder: Path) -> Path:
+    """The text tables alone: with ``binary.btf`` beside them a damaged table falls back to it."""
     dst = folder / "alu"
     shutil.copytree(shared_material("alu"), dst)
+    (dst / "binary.btf").unlink(missing_ok=True)
     return dst
+
+
+# --- BTFbase binary.btf --------------------------------------------------------------------
+def btfbase_binary_seed(folder: Path) -> Path:
+    """A material folder holding only ``binary.btf`` (as some of the thesis gallery's)."""
+    dst = folder / "alu"
+    dst.mkdir()
+    shutil.copy(shared_material("alu") / "binary.btf", dst / "binary.btf")
+    return dst
+
+
+def btfbase_binary_mutate(path: Path, rng: np.random.Generator) -> None:
+    mutate_bytes(path / "binary.btf", rng)
+
+
+# --- UBO2014 DFMF .btf ---------------------------------------------------------------------
+def ubo2014_seed(folder: Path) -> Path:
+    btf, _errors = factorise(
+        tabulate(LambertianBTF((0.8, 0.5, 0.2)), UBO2003, UBO2003, width=2, height=2).data * np.pi,
+        ranks=(2, 1, 1),
+        name="fuzz",
+    )
+    write_ubo2014(folder / "m.btf", btf)
+    return folder / "m.btf"
 
 
 def btfbase_mutate(path: Path, rng: np.random.Generator) -> None:
@@ -223,6 +251,22 @@ READERS: list[Reader] = [
         lambda p, out: ["info", str(p)],
         lambda p: memory.btf_load(p).peak_bytes,
         count=24,
+    ),
+    Reader(
+        "btfbase-binary",
+        btfbase_binary_seed,
+        btfbase_binary_mutate,
+        lambda p, out: ["info", str(p)],
+        lambda p: memory.btf_load(p).peak_bytes,
+        count=24,
+    ),
+    Reader(
+        "ubo2014-dfmf",
+        ubo2014_seed,
+        mutate_bytes,
+        lambda p, out: ["info", str(p)],
+        lambda p: memory.btf_load(p).peak_bytes,
+        count=40,
     ),
     *(
         Reader(
