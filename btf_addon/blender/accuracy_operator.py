@@ -297,6 +297,11 @@ class BTF_OT_apply_recommended(Operator):
         settings = recommended_settings(context.scene)
         settings.to_properties(context.scene.btf_render)
         rec = json.loads(context.scene.btf_accuracy.report)["recommendation"]
+        texel_filter = rec["knobs"].get("texel_filter")
+        if texel_filter is not None:  # a material knob: the estimate set every BTF material's
+            for material in bpy.data.materials:
+                if material.library is None and material.btf.enabled:
+                    material.btf.texel_filter = texel_filter
         self.report({"INFO"}, f"Applied {rec['describe']}")
         return {"FINISHED"}
 

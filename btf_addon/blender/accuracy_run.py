@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
+import bpy
 import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
 from ..cl.renderer import CLRenderer
 from ..core.errors import BTFError
-from ..render.accuracy import Estimate, Rung, ladder, reference_settings
+from ..render.accuracy import KNOBS, Estimate, Rung, ladder, reference_settings
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
 from ..scene.analysis import analyse
@@ -55,30 +57,62 @@ class LadderRenderer:
     kernel compile takes minutes on some drivers: never on Blender's main thread) and fills
     ``setup_seconds`` and ``device_name``."""
 
-    def __init__(self, scene: Scene, width: int, height: int, device_index: int | None = None):
+    def __init__(
+        self,
+        scene: Scene,
+        width: int,
+        height: int,
+        device_index: int | None = None,
+        base: RenderSettings | None = None,
+    ):
         self.scene, self.width, self.height = scene, width, height
         self.device_index = device_index
-        self.renderer: CLRenderer | None = None
+        self.base = base or RenderSettings()
+        self.ctx = None
+        # One renderer per (film, texel filter): both are fixed when a renderer uploads the
+        # scene. The first is made by setup() with the scene's own; a ladder adds at most
+        # three more (anti-aliasing off, the other texel filter, the reference's).
+        self.renderers: dict[tuple, CLRenderer] = {}
         self.setup_seconds, self.device_name = 0.0, ""
 
     def setup(self) -> None:
-        if self.renderer is not None:
+        if self.ctx is not None:
             return
         t0 = time.perf_counter()
         try:
-            ctx = create_context(self.device_index)
+            self.ctx = create_context(self.device_index)
         except OpenCLUnavailableError as exc:
             raise BTFError(
                 f"the quality estimate measures the OpenCL final render, and OpenCL is "
                 f"unavailable: {exc}"
             ) from None
-        self.renderer = CLRenderer(self.scene, self.width, self.height, ctx, analyse(self.scene))
-        self.device_name = ctx.device_name
+        self.device_name = self.ctx.device_name
+        self._renderer(self.base.film(), None)
         self.setup_seconds = time.perf_counter() - t0
+
+    @property
+    def renderer(self) -> CLRenderer | None:
+        """The renderer of the scene's own film and texel filters (None before setup)."""
+        return self.renderers.get((self.base.film(), None))
+
+    def _renderer(self, film, texel_filter: str | None) -> CLRenderer:
+        key = (film, texel_filter)
+        if key not in self.renderers:
+            scene = self.scene
+            if texel_filter is not None:  # every BTF material's texel filter replaced
+                scene = replace(
+                    scene,
+                    materials=[replace(m, texel_filter=texel_filter) for m in scene.materials],
+                )
+            self.renderers[key] = CLRenderer(
+                scene, self.width, self.height, self.ctx, analyse(scene), film=film
+            )
+        return self.renderers[key]
 
     def __call__(self, rung: Rung, progress: Callable[[float], bool]) -> np.ndarray | None:
         self.setup()
         settings = rung.settings
+        renderer = self._renderer(settings.film(), rung.value("texel_filter"))
         stopped = False
 
         def step(fraction: float) -> bool:
@@ -89,12 +123,12 @@ class LadderRenderer:
         cam = self.scene.camera
         lights = frame_lights(settings, self.scene, cam.world_from_camera[:3, 2])
         if settings.sampled:  # as F12: the passes from one light, then the paths
-            self.renderer.render_direct(lights.prefix(1))
-            image = self.renderer.render_sampled(
+            renderer.render_direct(lights.prefix(1))
+            image = renderer.render_sampled(
                 settings.samples, settings.seed, step, max_bounces=settings.max_bounces
             )
         else:
-            image = self.renderer.render_direct(lights, step).combined
+            image = renderer.render_direct(lights, step, aa_samples=settings.aa_samples).combined
         return None if stopped else np.asarray(image[..., :3], dtype=np.float32)
 
 
@@ -113,8 +147,14 @@ def prepare(
     scene = depsgraph.scene
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to estimate from")
-    base = RenderSettings.from_properties(scene.btf_render)
-    rungs = ladder(base)
+    base = RenderSettings.from_scene(scene)  # with the film filter of scene.cycles
+    filters = {m.btf.texel_filter for m in bpy.data.materials if m.btf.enabled}
+    # The texel filter knob only where BTF materials exist, starting from the scene's own
+    # filter where they share one.
+    knobs = KNOBS if filters else tuple(k for k in KNOBS if k.name != "texel_filter")
+    rungs = ladder(
+        base, knobs, base_extra={"texel_filter": filters.pop()} if len(filters) == 1 else {}
+    )
     if not rungs:
         raise BTFError(
             "no quality knob applies: the scene is lit by the headlight (one deterministic "
@@ -125,7 +165,7 @@ def prepare(
     t0 = time.perf_counter()
     exported = export_scene(depsgraph, *preview)
     export_seconds = time.perf_counter() - t0
-    renderer = LadderRenderer(exported, *preview, device_index)
+    renderer = LadderRenderer(exported, *preview, device_index, base)
     estimate = Estimate(
         base, preview, full, reference_settings(base, reference_samples, reference_bounces)
     )

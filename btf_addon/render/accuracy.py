@@ -82,9 +82,31 @@ KNOBS: tuple[Knob, ...] = (
     ),
     Knob("samples", "Samples", (1, 4, 16, 64, 256), lambda s: s.sampled, Role.WORK),
     Knob("max_bounces", "Max Bounces", (0, 1, 2, 4), lambda s: s.sampled, Role.CLASS),
+    # Anti-aliasing: off traces pixel centres (aliasing is error against the filtered
+    # reference). Its subpixels split the N lights, so they change the cost per pixel·light
+    # rather than multiplying the work: a class, not a work knob.
+    Knob("use_antialiasing", "Anti-Aliasing", (False, True), _environment, Role.CLASS),
+    Knob(
+        "aa_samples",
+        "AA Samples",
+        (1, 4, 16),
+        lambda s: s.use_antialiasing and not s.sampled and _environment(s),
+        Role.CLASS,
+    ),
+    # Not a RenderSettings field: every BTF material's texel filter (Rung.extra), applied by
+    # the render callable (blender/accuracy_run.py).
+    # Under the headlight nothing is laddered: the reference samples the World, which the
+    # headlight does not show.
+    Knob("texel_filter", "Texel Filter", ("NEAREST", "LINEAR"), _environment, Role.CLASS),
 )
 
 _FIELDS = {f.name for f in fields(RenderSettings)}
+
+
+def all_knobs(knobs: Sequence[Knob] | None = None) -> Sequence[Knob]:
+    """``knobs``, or the module's ``KNOBS`` read at call time (not bound as a default, so a
+    caller — or a test of the core ladder — can narrow the set in one place)."""
+    return KNOBS if knobs is None else knobs
 
 
 @dataclass(frozen=True)
@@ -103,14 +125,15 @@ class Rung:
             return getattr(self.settings, name)
         return dict(self.extra).get(name)
 
-    def knob_values(self, knobs: Sequence[Knob] = KNOBS) -> dict[str, Any]:
+    def knob_values(self, knobs: Sequence[Knob] | None = None) -> dict[str, Any]:
         """{name: value} of every knob that applies to this rung (enums as their names)."""
+        knobs = all_knobs(knobs)
         return {k.name: _plain(self.value(k.name)) for k in knobs if k.applies(self.settings)}
 
     @property
     def series(self) -> str:
         """The curve this rung is drawn on: branch values + the swept knob."""
-        labels = {k.name: k.label for k in KNOBS}
+        labels = {k.name: k.label for k in all_knobs()}
         sweep = labels.get(self.sweep, self.sweep)
         branch = ", ".join(str(_plain(v)).lower() for v in self.branch)
         return f"{branch}: {sweep}" if branch else sweep
@@ -128,12 +151,13 @@ def _with(settings: RenderSettings, extra: dict, name: str, value: Any):
 
 def ladder(
     base: RenderSettings,
-    knobs: Sequence[Knob] = KNOBS,
+    knobs: Sequence[Knob] | None = None,
     base_extra: Mapping[str, Any] | None = None,
 ) -> list[Rung]:
     """Every rung: for each combination of the branch knobs' values, each other knob that
     applies swept over its values (plus the scene's own), the rest at the scene's values.
     Duplicates (the base appears in every sweep) are kept once, in the first sweep."""
+    knobs = all_knobs(knobs)
     extra0 = dict(base_extra or {})
     branches: list[tuple[RenderSettings, dict, tuple]] = [(base, extra0, ())]
     for knob in (k for k in knobs if k.branch):
@@ -176,6 +200,7 @@ def reference_settings(base: RenderSettings, samples: int = 1024, bounces: int =
     return replace(
         base,
         final_mode=FinalMode.SAMPLED,
+        use_antialiasing=True,  # the true image is the film-filtered one
         samples=samples,
         max_bounces=max(bounces, base.max_bounces),
         seed=base.seed + 7919,
@@ -262,23 +287,24 @@ def _rgb(image: np.ndarray) -> np.ndarray:
 # Time model
 
 
-def work_units(rung: Rung, pixels: int, knobs: Sequence[Knob] = KNOBS) -> float:
+def work_units(rung: Rung, pixels: int, knobs: Sequence[Knob] | None = None) -> float:
     """pixels × the product of the work knobs that apply (pixel·lights, pixel·samples)."""
     units = float(pixels)
-    for knob in knobs:
+    for knob in all_knobs(knobs):
         if knob.role is Role.WORK and knob.applies(rung.settings):
             units *= float(rung.value(knob.name))
     return units
 
 
-def cost_class(rung: Rung, knobs: Sequence[Knob] = KNOBS) -> tuple:
+def cost_class(rung: Rung, knobs: Sequence[Knob] | None = None) -> tuple:
     """The values of the class knobs that apply: rungs with equal classes cost the same per
     unit of work."""
-    return tuple(
+    values = (
         (k.name, _plain(rung.value(k.name)))
-        for k in knobs
+        for k in all_knobs(knobs)
         if k.role is Role.CLASS and k.applies(rung.settings)
     )
+    return tuple((name, v) for name, v in values if v is not None)  # None: a knob not swept
 
 
 @dataclass(frozen=True)
@@ -295,7 +321,7 @@ class TimeModel:
 
     setup_seconds: float
     classes: Mapping[tuple, tuple[float, float]]  # class → (overhead s, seconds per unit)
-    knobs: tuple[Knob, ...] = KNOBS
+    knobs: tuple[Knob, ...] | None = None  # None: all_knobs() when used
     residual: float = 0.0  # largest |measured − fitted| / fitted over the rungs fitted
 
     def predict(self, rung: Rung, pixels: int) -> float:
@@ -315,7 +341,7 @@ def _class_text(key: tuple) -> str:
 
 
 def fit_time_model(
-    timings: Iterable[Timing], setup_seconds: float = 0.0, knobs: Sequence[Knob] = KNOBS
+    timings: Iterable[Timing], setup_seconds: float = 0.0, knobs: Sequence[Knob] | None = None
 ) -> TimeModel:
     """Least squares per cost class: t = overhead + rate · work with overhead ≥ 0 and rate > 0
     (a noisy negative intercept is dropped and the rate refitted through the origin). A class
@@ -349,7 +375,7 @@ def fit_time_model(
         for w, t in points:
             fit = overhead + rate * w
             residual = max(residual, abs(t - fit) / fit)
-    return TimeModel(float(setup_seconds), fitted, tuple(knobs), residual)
+    return TimeModel(float(setup_seconds), fitted, tuple(all_knobs(knobs)), residual)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -508,7 +534,8 @@ def run(
         return not cancelled()
 
     if estimate.reference_image is None:
-        ref_rung = Rung(estimate.reference, "reference")
+        # Bilinear texels: the reference is the smooth surface the texels sample.
+        ref_rung = Rung(estimate.reference, "reference", extra=(("texel_filter", "LINEAR"),))
         t0 = clock()
         image = render(ref_rung, lambda f: report(f * ref_share, "reference"))
         if image is None or cancelled():
@@ -621,7 +648,7 @@ def reference_noise(estimate: Estimate) -> float | None:
     return math.sqrt(sigma2 / estimate.reference.samples)
 
 
-def describe_rung(rung: Rung, knobs: Sequence[Knob] = KNOBS) -> str:
+def describe_rung(rung: Rung, knobs: Sequence[Knob] | None = None) -> str:
     """ "Sampled: samples=16, max_bounces=4" style text of the knobs that apply."""
     values = rung.knob_values(knobs)
     mode = values.pop("final_mode", None)

@@ -17,11 +17,11 @@ import numpy as np
 from ..core.fileio import atomic_write
 from ..core.imageio import srgb8_from_linear, write_png
 from .accuracy import (
-    KNOBS,
     Estimate,
     Recommendation,
     Role,
     _class_text,
+    all_knobs,
     cost_class,
     describe_rung,
     error_map,
@@ -45,7 +45,9 @@ def unit_of(key: tuple, estimate: Estimate) -> str:
     """The unit of work of a cost class's rate ("pixel·lights_total", "pixel·samples")."""
     for p in estimate.points:
         if cost_class(p.rung) == key:
-            names = [k.name for k in KNOBS if k.role is Role.WORK and k.applies(p.rung.settings)]
+            names = [
+                k.name for k in all_knobs() if k.role is Role.WORK and k.applies(p.rung.settings)
+            ]
             return "·".join(["pixel", *names])
     return "pixel"
 

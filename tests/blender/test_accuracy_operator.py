@@ -29,8 +29,10 @@ def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fres
     assert bpy.ops.btf.estimate_quality() == {"FINISHED"}
     data = json.loads(scene.btf_accuracy.report)
     assert data["preview_size"] == [16, 11] and data["full_size"] == [48, 32]
-    # 14 rungs: the scene's own 24 lights join the lights sweep (4, 16, 24, 64, 256, 1024).
-    assert data["rungs_done"] == data["rungs_total"] == 14 and data["budget_seconds"] == 30.0
+    # 20 rungs: the scene's own 24 lights join the lights sweep (4, 16, 24, 64, 256, 1024);
+    # per final mode anti-aliasing off and the other texel filter, and for Virtual Lights 1
+    # and 4 anti-aliasing subpixels beside the scene's 16.
+    assert data["rungs_done"] == data["rungs_total"] == 20 and data["budget_seconds"] == 30.0
     rec = data["recommendation"]
     assert rec is not None and rec["predicted_seconds"] <= 30.0
     assert rec["rmse"] == min(p["rmse"] for p in data["points"])  # everything fits 30 s here
@@ -49,7 +51,11 @@ def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fres
     seed = scene.btf_render.seed
     assert bpy.ops.btf.apply_recommended() == {"FINISHED"}
     for name, value in rec["knobs"].items():
-        assert getattr(scene.btf_render, name) == value, name
+        if name == "texel_filter":  # a material knob: every BTF material's
+            btf_materials = [m for m in bpy.data.materials if m.btf.enabled]
+            assert btf_materials and all(m.btf.texel_filter == value for m in btf_materials)
+        else:
+            assert getattr(scene.btf_render, name) == value, name
     assert scene.btf_render.seed == seed  # only the knobs change
     # One undo step: Blender pushes one for an operator with UNDO when it finishes
     # (background Blender has no window, so ed.undo itself cannot run here).

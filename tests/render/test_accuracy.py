@@ -20,9 +20,22 @@ def _by_sweep(rungs):
     return out
 
 
+#: The knobs of the render settings' lights, samples and bounces (the first four entries):
+#: the ladder, time model and run loop are tested on them (the rung counts below), and the
+#: film and texel knobs apart (test_anti_aliasing_and_texel_filter_knobs).
+CORE_KNOBS = acc.KNOBS[:4]
+ALL_KNOBS = acc.KNOBS
+
+
+@pytest.fixture(autouse=True)
+def core_knobs(monkeypatch):
+    monkeypatch.setattr(acc, "KNOBS", CORE_KNOBS)
+
+
 def test_ladder_sweeps_each_knob_that_applies_per_final_mode():
-    base = RenderSettings()  # Virtual Lights, 256 lights, 64 samples, 4 bounces
-    rungs = acc.ladder(base)
+    # Virtual Lights, 256 lights, 64 samples, 4 bounces
+    base = RenderSettings(final_mode=FinalMode.VIRTUAL)
+    rungs = acc.ladder(base, CORE_KNOBS)
     sweeps = _by_sweep(rungs)
     virtual = (FinalMode.VIRTUAL,)
     sampled = (FinalMode.SAMPLED,)
@@ -39,12 +52,32 @@ def test_ladder_sweeps_each_knob_that_applies_per_final_mode():
     assert [r.settings.max_bounces for r in sweeps[sampled, "max_bounces"]] == [0, 1, 2]
     assert len(rungs) == len(set(rungs)) == 5 + 5 + 3
     # Knobs that do not apply are not reported: lights in the Sampled mode, samples in Virtual.
-    assert set(sweeps[virtual, "lights_total"][0].knob_values()) == {"final_mode", "lights_total"}
-    assert set(sweeps[sampled, "samples"][0].knob_values()) == {
+    assert set(sweeps[virtual, "lights_total"][0].knob_values(CORE_KNOBS)) == {
+        "final_mode",
+        "lights_total",
+    }
+    assert set(sweeps[sampled, "samples"][0].knob_values(CORE_KNOBS)) == {
         "final_mode",
         "samples",
         "max_bounces",
     }
+
+
+def test_anti_aliasing_and_texel_filter_knobs():
+    """Anti-aliasing on/off in both modes, its subpixels only for Virtual Lights (the Sampled
+    mode spreads its samples over the filter instead), the texel filter from the scene's own."""
+    base = RenderSettings(final_mode=FinalMode.VIRTUAL, aa_samples=16)
+    sweeps = _by_sweep(acc.ladder(base, ALL_KNOBS, base_extra={"texel_filter": "LINEAR"}))
+    virtual, sampled = (FinalMode.VIRTUAL,), (FinalMode.SAMPLED,)
+    for branch in (virtual, sampled):
+        assert [r.settings.use_antialiasing for r in sweeps[branch, "use_antialiasing"]] == [False]
+        assert [r.value("texel_filter") for r in sweeps[branch, "texel_filter"]] == ["NEAREST"]
+    assert [r.settings.aa_samples for r in sweeps[virtual, "aa_samples"]] == [1, 4]
+    assert (sampled, "aa_samples") not in sweeps
+    off = sweeps[virtual, "use_antialiasing"][0]
+    assert "aa_samples" not in off.knob_values(ALL_KNOBS)  # no subpixels without AA
+    # The reference is the filtered image whatever the scene's film switch says.
+    assert acc.reference_settings(replace(base, use_antialiasing=False)).use_antialiasing
 
 
 def test_the_scenes_own_value_is_a_rung_and_the_headlight_has_no_knobs():
@@ -57,19 +90,17 @@ def test_the_scenes_own_value_is_a_rung_and_the_headlight_has_no_knobs():
 
 
 def test_a_knob_outside_render_settings_is_one_entry_and_travels_in_extra():
-    """A material knob (e.g. the texel filter another change adds) needs no other code here."""
-    texel = acc.Knob(
-        "texel_filter", "Texel Filter", ("NEAREST", "BILINEAR"), lambda s: True, acc.Role.CLASS
-    )
-    rungs = acc.ladder(RenderSettings(), (*acc.KNOBS, texel), {"texel_filter": "NEAREST"})
+    """A material knob (the texel filter) needs no other code here."""
+    knobs = (*CORE_KNOBS, next(k for k in ALL_KNOBS if k.name == "texel_filter"))
+    rungs = acc.ladder(RenderSettings(), knobs, {"texel_filter": "NEAREST"})
     filtered = [r for r in rungs if r.sweep == "texel_filter"]
     # Both modes sweep it; the NEAREST rung equals each mode's base, already present.
     assert [(r.branch, r.value("texel_filter")) for r in filtered] == [
-        ((FinalMode.VIRTUAL,), "BILINEAR"),
-        ((FinalMode.SAMPLED,), "BILINEAR"),
+        ((FinalMode.VIRTUAL,), "LINEAR"),
+        ((FinalMode.SAMPLED,), "LINEAR"),
     ]
-    key = acc.cost_class(filtered[0], (*acc.KNOBS, texel))
-    assert key == (("final_mode", "VIRTUAL"), ("texel_filter", "BILINEAR"))
+    key = acc.cost_class(filtered[0], knobs)
+    assert key == (("final_mode", "VIRTUAL"), ("texel_filter", "LINEAR"))
 
 
 def test_relative_rmse_and_its_heat_map(rng):
@@ -103,7 +134,8 @@ def test_ssim_matches_its_closed_form_on_flat_images_and_grows_with_noise(rng):
 
 
 def _rung(**kw) -> acc.Rung:
-    return acc.Rung(replace(RenderSettings(), **kw), "test")
+    """Virtual Lights unless told (the tests were written when it was the default)."""
+    return acc.Rung(replace(RenderSettings(final_mode=FinalMode.VIRTUAL), **kw), "test")
 
 
 def test_time_model_recovers_injected_rates_and_predicts_full_resolution():
@@ -334,9 +366,10 @@ def test_verify_pools_the_recommendations_error_over_more_seeds(rng):
         and est.points[2].rmse == pytest.approx(0.5 / 256, rel=1e-5)
     )
     # Deterministic rungs are not re-rendered.
-    est2 = acc.Estimate(RenderSettings(), (8, 6), (16, 12), acc.reference_settings(base, 64))
+    virtual = RenderSettings(final_mode=FinalMode.VIRTUAL)
+    est2 = acc.Estimate(virtual, (8, 6), (16, 12), acc.reference_settings(base, 64))
     est2.reference_image = ref
-    est2.points.append(acc.Point(acc.Rung(RenderSettings(), "lights_total"), 1, 0.1, 0.1, 1.0))
+    est2.points.append(acc.Point(acc.Rung(virtual, "lights_total"), 1, 0.1, 0.1, 1.0))
     seen.clear()
     acc.verify_recommendation(est2, render)
     assert seen == [] and est2.points[0].seeds == 1 and math.isnan(est2.points[0].rmse_upper)
