@@ -15,6 +15,7 @@ from .errors import BTFFormatError
 from .grid import UBO2003, RingGrid
 from .model import (
     BTF,
+    CHUNK,
     BTFMeta,
     Queries,
     tile_size_from_params,
@@ -116,10 +117,15 @@ def tabulate(
     uv = np.column_stack([xs.ravel(), ys.ravel()])
     data = np.empty((len(v_dirs), len(l_dirs), height, width, 3), dtype=np.float32)
     n_tex = len(uv)
+    # Lights in blocks of about CHUNK query rows: the working set stays bounded whatever the
+    # grid (the same evaluations as one call per view, so the same values).
+    step = max(1, CHUNK // n_tex)
     for v, wo in enumerate(v_dirs):
-        wi = np.repeat(l_dirs, n_tex, axis=0)
-        values = btf.evaluate(np.tile(uv, (len(l_dirs), 1)), wi, np.broadcast_to(wo, wi.shape))
-        data[v] = values.reshape(len(l_dirs), height, width, 3)
+        for first in range(0, len(l_dirs), step):
+            block = l_dirs[first : first + step]
+            wi = np.repeat(block, n_tex, axis=0)
+            values = btf.evaluate(np.tile(uv, (len(block), 1)), wi, np.broadcast_to(wo, wi.shape))
+            data[v, first : first + len(block)] = values.reshape(len(block), height, width, 3)
     return DenseBTF(
         data,
         view_grid,

@@ -115,3 +115,16 @@ def _measured_range(rng, n):
 
 def _rel_rmse(a, b):
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def test_tabulate_in_light_blocks_equals_one_call_per_view(monkeypatch):
+    """Tabulating in blocks of lights (a bounded working set) gives exactly the values of one
+    evaluation per view: the blocks only split the same queries."""
+    from btf_addon.core import dense
+    from btf_addon.core.microgeometry import leather
+
+    btf = leather(texels=4, fine_per_texel=2)
+    whole = dense.tabulate(btf, UBO2003, UBO2003)
+    monkeypatch.setattr(dense, "CHUNK", 50)  # 3 lights × 16 texels per block
+    blocks = dense.tabulate(btf, UBO2003, UBO2003)
+    np.testing.assert_array_equal(blocks.data, whole.data)
