@@ -83,8 +83,8 @@ def _rate(n: int, seconds: float) -> float:
 def main(n: int = N) -> str:
     from btf_addon.cl.context import OpenCLUnavailableError, create_context
     from btf_addon.cl.evaluate import device_btf
-    from btf_addon.core.mapping import filtered_evaluate
     from btf_addon.core.angles import directions_from_angles_deg
+    from btf_addon.core.mapping import filtered_evaluate
 
     try:
         ctx = create_context()
@@ -96,7 +96,7 @@ def main(n: int = N) -> str:
 
         gl = create_gl_context()
         gl_name = gl.info["GL_RENDERER"]
-    except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
+    except Exception as exc:
         print(f"GLSL skipped: {exc}")
         gl, gl_name = None, "-"
     rows = []
