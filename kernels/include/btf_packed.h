@@ -19,6 +19,18 @@
 
 typedef __global const float *Stream;
 
+/* Codec variants (btf_addon/scene/analysis.py): a program compiles only the decoders of the
+ * codecs its scene has; undefined means all (eval_btf, tests). */
+#ifndef HAS_MLVQ
+#define HAS_MLVQ 1
+#endif
+#ifndef HAS_DENSE
+#define HAS_DENSE 1
+#endif
+#ifndef HAS_ANALYTIC
+#define HAS_ANALYTIC 1
+#endif
+
 inline float btf_mod(float x, float m)
 {
   return x - m * floor(x / m);
@@ -266,12 +278,19 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
                            float phi_i, float theta_v, float phi_v)
 {
   int codec = ITAB(H_CODEC);
+#if HAS_MLVQ
   if (codec == CODEC_MLVQ) {
     return mlvq_decode(I, F, uv, wi, theta_i, phi_i, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
   }
+#endif
+#if HAS_DENSE
   if (codec == CODEC_DENSE) {
     return dense_evaluate(I, F, uv, theta_i, phi_i, theta_v, phi_v);
   }
+#endif
+#if !HAS_ANALYTIC
+  return (float3)(0.0f); /* not reached: the scene has no analytic material */
+#else
   float3 albedo = (float3)(FTAB(F_ALBEDO), FTAB(F_ALBEDO + 1), FTAB(F_ALBEDO + 2));
   if (codec == CODEC_LAMBERTIAN) {
     return albedo * (fmax(wi.z, 0.0f) / M_PI_F);
@@ -298,6 +317,7 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   float weight = (1.0f - metallic) * (1.0f - (f0d + (1.0f - f0d) *
                                                pown(1.0f - clamp(wo.z, 0.0f, 1.0f), 5)));
   return weight * albedo * on + fresnel * ggx;
+#endif
 }
 
 inline float2 btf_theta_phi_deg(float3 d)
