@@ -11,6 +11,7 @@ import bench_envmap
 import bench_final_render
 import bench_interpolation
 import bench_mapping
+import bench_specialise
 import bench_viewport
 import bench_vr
 import bench_wiimote
@@ -28,6 +29,7 @@ if __name__ == "__main__":
         bench_bridge,
         bench_final_render,
         bench_mapping,
+        bench_specialise,
         bench_wiimote,
         bench_accuracy,  # last: it rewrites its section of docs/accuracy.md
     ):
