@@ -105,9 +105,10 @@ inline float3 mlvq_pdf2(Stream I, Stream F, const MLVQCell *c, float4 e)
   return btf_ycbcr_to_rgb(lum, cbcr.x, cbcr.y);
 }
 
-/* Angles in degrees, theta <= 90, and wi the unit light direction of (theta_i, phi_i): the
- * original decoder's raw RGB. */
-inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_i, float phi_i,
+/* Everything of a decode that does not depend on the texel: indices and weights of the
+ * angles, table offsets. Angles in degrees, theta <= 90, and wi the unit light direction of
+ * (theta_i, phi_i). A bilinear lookup computes it once for its four texels. */
+inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
                           float theta_v, float phi_v)
 {
   MLVQCell c;
@@ -115,12 +116,6 @@ inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_
   c.n_alpha = ITAB(H_N_ALPHA);
   c.n_theta = ITAB(H_N_THETA);
   c.n_phi = ITAB(H_N_PHI);
-  int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
-  int x = ((int)floor(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET)) % width;
-  int y = ((int)floor(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET)) % height;
-  x = (x + width) % width;
-  y = (y + height) % height;
-
   float view_phi = btf_mod(360.0f - phi_v, 360.0f);
   /* The original rotates the light by φ' = φv − φi − 90° and takes x = cos φ'·sin θi,
    * y = sin φ'·sin θi: in terms of wi = (sin θi cos φi, sin θi sin φi, cos θi) that is
@@ -155,7 +150,18 @@ inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_
   c.pdf1 = ITAB(H_F_PDF1);
   c.f2 = ITAB(H_F_MLVQ2);
   c.fab = ITAB(H_F_MLVQ_AB);
+  return c;
+}
 
+/* The original decoder's raw RGB at the texel holding uv, for the cell's angles. */
+inline float3 mlvq_texel(Stream I, Stream F, const MLVQCell *cp, float2 uv)
+{
+  MLVQCell c = *cp;
+  int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
+  int x = ((int)floor(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET)) % width;
+  int y = ((int)floor(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET)) % height;
+  x = (x + width) % width;
+  y = (y + height) % height;
   int texel = y * width + x;
   float2 t6 = vload2(texel, F + ITAB(H_F_MLVQ6)); /* (pdf6 scale, slot + 1) */
   int slot6 = (int)t6.y - 1;
@@ -178,6 +184,15 @@ inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_
     rgb /= FTAB(F_HDR_VALUE);
   }
   return rgb;
+}
+
+/* Angles in degrees, theta <= 90, and wi the unit light direction of (theta_i, phi_i): the
+ * original decoder's raw RGB. */
+inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_i, float phi_i,
+                          float theta_v, float phi_v)
+{
+  MLVQCell c = mlvq_cell(I, F, wi, theta_i, phi_i, theta_v, phi_v);
+  return mlvq_texel(I, F, &c, uv);
 }
 
 /* --- dense -------------------------------------------------------------------------------- */
@@ -343,6 +358,18 @@ inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi,
   float x0 = btf_mod(i0.x, size.x), y0 = btf_mod(i0.y, size.y);
   float x1 = btf_mod(x0 + 1.0f, size.x), y1 = btf_mod(y0 + 1.0f, size.y);
   float3 sum = (float3)(0.0f);
+#if HAS_MLVQ
+  if (ITAB(H_CODEC) == CODEC_MLVQ) { /* the four texels share the angles' work */
+    MLVQCell c = mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
+    for (int k = 0; k < 4; k++) {
+      float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
+      float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
+      float2 centre = (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y);
+      sum += w * (mlvq_texel(I, F, &c, centre) * FTAB(F_VALUE_SCALE));
+    }
+    return sum;
+  }
+#endif
   for (int k = 0; k < 4; k++) {
     float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
     float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
