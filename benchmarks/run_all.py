@@ -13,6 +13,7 @@ import bench_final_render
 import bench_formats
 import bench_interpolation
 import bench_mapping
+import bench_specialise
 import bench_viewport
 import bench_vr
 import bench_wiimote
@@ -31,6 +32,7 @@ if __name__ == "__main__":
         bench_final_render,
         bench_mapping,
         bench_aa,
+        bench_specialise,
         bench_wiimote,
         bench_formats,
         bench_accuracy,  # last: it rewrites its section of docs/accuracy.md

@@ -20,6 +20,20 @@ __kernel void eval_btf(__global const float *q, __global const float *dirs, cons
   vstore3(value, gid, out);
 }
 
+/* The bilinear filtered lookup (btf_filtered, FILTER_LINEAR: four decodes) at the same rows:
+ * what benchmarks/bench_decode.py times as "filtered lookups". */
+__kernel void eval_btf_filtered(__global const float *q, __global const float *dirs,
+                                const int n, __global const float *I, __global const float *F,
+                                __global float *out)
+{
+  int gid = get_global_id(0);
+  if (gid >= n) {
+    return;
+  }
+  float3 wi = vload3(2 * gid, dirs), wo = vload3(2 * gid + 1, dirs);
+  vstore3(btf_filtered(I, F, FILTER_LINEAR, vload2(0, q + 6 * gid), wi, wo), gid, out);
+}
+
 /* The mapped lookup a renderer does at surface points (btf_addon/core/mapping.py
  * mapped_evaluate, the reference): per point 20 floats — world position, unit shading normal,
  * the mesh's tangent frame t and b, mesh uv, light and view directions (world, unit) — and

@@ -22,6 +22,10 @@
 #ifndef HAS_SHADOWS
 #define HAS_SHADOWS 1
 #endif
+/* HAS_ENVIRONMENT 0: a black World (analysis.py): render_env_mis samples no environment. */
+#ifndef HAS_ENVIRONMENT
+#define HAS_ENVIRONMENT 1
+#endif
 
 #include "btf_packed.h"
 /* btf_surface.h after btf_trace.h: its primary_hit traces. */
@@ -306,6 +310,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       float exposure = cur.exposure;
       int pixel;
       /* 1. Next-event estimation: a direction from the environment's distribution. */
+#if !HAS_ENVIRONMENT /* black: it adds 0; its random numbers are still drawn (same image) */
+      (void)next_2d(&smp);
+#else
       {
         float2 u = next_2d(&smp);
         float u0 = u.x, u1 = u.y;
@@ -333,6 +340,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                  (weight / pdf_light);
         }
       }
+#endif
       sum += throughput * exposure * blender_lights(&cur, I, F, scene_lights, scene_light_count,
                                                      eps, bounds, links, corners, &smp);
       /* 2. A direction from the BTF's sampling (include/btf_sampling.h): it either reaches the
@@ -353,9 +361,11 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       hit = trace(cur.start, dir, eps, INFINITY, bounds, links, corners, false, &th, &uh, &vh);
 #endif
       if (hit < 0) {
+#if HAS_ENVIRONMENT
         float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
         float weight = pdf_bsdf * pdf_bsdf / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
         sum += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
+#endif
         break;
       }
       if (bounce >= max_bounces) {

@@ -1,44 +1,48 @@
 /* BTFbase MLVQ decoding in GLSL: the same steps as btf_addon/core/mlvq.py (the reference, which
  * documents each level) and kernels/include/btf_mlvq.h. Needs btf_tables_lib, btf_colour_lib. */
 
-float mlvq_pdf1(int s, int i, float w, int n_beta)
+/* Laid out as kernels/include/btf_packed.h reads it: the interleaved exact copies f_mlvq*
+ * (btf_addon/core/packed.py mlvq_fast_tables), the Hermite step's weights and the colour
+ * curves' β weights once per decode; β and α by atan from the turned light vector (accurate at
+ * grazing light, where asin in float32 is not). */
+
+/* mlvq_pdf1's Hermite step (core/mlvq.py _pdf1) as weights on p[i-1], p[i], p[i+1]. */
+vec3 mlvq_hermite_weights(int i, float w, int n_beta)
 {
-  int row = itab(H_F_PDF1) + s * n_beta;
-  float p0 = ftab(row + i), p1 = ftab(row + i + 1);
-  float m0 = (i == 0) ? p1 - p0 : 0.5 * (p1 - ftab(row + i - 1));
-  float m1 = (i == n_beta - 2) ? p1 - p0 : 0.5 * (p1 - p0);
   float t2 = w * w, t3 = t2 * w;
   float h01 = -2.0 * t3 + 3.0 * t2;
   float h00 = 1.0 - h01;
   float h11 = t3 - t2;
   float h10 = h11 - t2 + w;
-  return h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1;
-}
-
-vec2 mlvq_ab(int c, int i, float w, int n_beta)
-{
-  int row = itab(H_INDEX_AB) + c * n_beta;
-  int ab = itab(H_F_AB_COLORS);
-  int a = itab(row + i), b = itab(row + i + 1);
-  vec2 ca = vec2(ftab(ab + 2 * a), ftab(ab + 2 * a + 1));
-  vec2 cb = vec2(ftab(ab + 2 * b), ftab(ab + 2 * b + 1));
-  return ca * (1.0 - w) + cb * w;
-}
-
-vec3 mlvq_pdf2(int idx2, int ia, float wa, int ib, float wb, int n_beta, int n_alpha)
-{
-  int lum_fn = itab(itab(H_PDF2_INDICES) + 2 * idx2);
-  int col_fn = itab(itab(H_PDF2_INDICES) + 2 * idx2 + 1);
-  float lum = 0.0;
-  vec2 cbcr = vec2(0.0);
-  for (int k = 0; k < 2; k++) {
-    int a = ia + k;
-    float w = (k == 1) ? wa : 1.0 - wa;
-    int li = lum_fn * n_alpha + a;
-    lum += w * ftab(itab(H_F_PDF2_SCALE) + li) *
-           mlvq_pdf1(itab(itab(H_PDF2_SLICES) + li), ib, wb, n_beta);
-    cbcr += w * mlvq_ab(itab(itab(H_PDF2_COLOURS) + col_fn * n_alpha + a), ib, wb, n_beta);
+  float gm = (i == n_beta - 2) ? 1.0 : 0.5;
+  if (i == 0) { /* m0 = p1 - p0 */
+    return vec3(0.0, h00 - h10 - gm * h11, h01 + h10 + gm * h11);
   }
+  return vec3(-0.5 * h10, h00 - gm * h11, h01 + 0.5 * h10 + gm * h11);
+}
+
+float mlvq_curve(int s, int ib, vec3 hw, int n_beta)
+{
+  int at = itab(H_F_PDF1) + s * n_beta + ib - 1; /* the header precedes: at - 1 stays inside */
+  return hw.x * ftab(at) + hw.y * ftab(at + 1) + hw.z * ftab(at + 2);
+}
+
+vec2 mlvq_cbcr(int c, int ib, float wb, int n_beta)
+{
+  int at = itab(H_F_MLVQ_AB) + 2 * (c * n_beta + ib);
+  return vec2(ftab(at), ftab(at + 1)) * (1.0 - wb) + vec2(ftab(at + 2), ftab(at + 3)) * wb;
+}
+
+/* One 2D function at (α, β) from its f_mlvq3 entry (luminance fn, colour fn). */
+vec3 mlvq_pdf2(int lum_fn, int col_fn, int ia, float wa, int ib, float wb, vec3 hw, int n_beta,
+               int n_alpha)
+{
+  int f2 = itab(H_F_MLVQ2) + 2 * (lum_fn * n_alpha + ia); /* (scale, curve) pairs */
+  float lum = (1.0 - wa) * ftab(f2) * mlvq_curve(int(ftab(f2 + 1)), ib, hw, n_beta) +
+              wa * ftab(f2 + 2) * mlvq_curve(int(ftab(f2 + 3)), ib, hw, n_beta);
+  int ci = itab(H_PDF2_COLOURS) + col_fn * n_alpha + ia;
+  vec2 cbcr = (1.0 - wa) * mlvq_cbcr(itab(ci), ib, wb, n_beta) +
+              wa * mlvq_cbcr(itab(ci + 1), ib, wb, n_beta);
   if (itab(H_HDR) != 0) {
     return btf_logluv_to_rgb(lum, cbcr.x, cbcr.y);
   }
@@ -70,17 +74,15 @@ vec3 mlvq_decode(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v
   float view_phi = mlvq_mod(360.0 - phi_v, 360.0);
   float light_phi = mlvq_mod((360.0 - phi_i) - (90.0 + view_phi), 360.0);
   float th = radians(theta_i), ph = radians(light_phi);
-  float bx = cos(ph) * sin(th), by = sin(ph) * sin(th);
-  float beta = asin(clamp(bx, -1.0, 1.0));
-  float cos_beta = cos(beta);
-  float alpha = cos_beta < 1e-3 ? 0.0 : asin(clamp(by / cos_beta, -1.0, 1.0));
-  beta = clamp(degrees(beta), -90.0, 90.0);
-  alpha = clamp(degrees(alpha), -90.0, 90.0);
+  float bx = clamp(cos(ph) * sin(th), -1.0, 1.0), by = sin(ph) * sin(th), bz = cos(th);
+  float cos_beta = sqrt(by * by + bz * bz); /* no cancellation, unlike sqrt(1 - bx²) */
+  float beta = clamp(degrees(atan(bx, cos_beta)), -90.0, 90.0);
+  float alpha = cos_beta < 1e-3 ? 0.0 : clamp(degrees(atan(by, max(bz, 0.0))), -90.0, 90.0);
 
   int ib, ia, it, ip;
   float wb, wa, wt, wp;
   if (itab(H_COS_BETA) != 0) {
-    ib = clamp(int((sin(radians(beta)) + 1.0) * 0.5 * float(n_beta - 1)), 0, n_beta - 2);
+    ib = clamp(int((bx + 1.0) * 0.5 * float(n_beta - 1)), 0, n_beta - 2);
     float b0 = ftab(itab(H_F_BETA) + ib), b1 = ftab(itab(H_F_BETA) + ib + 1);
     wb = (beta - b0) / (b1 - b0);
   }
@@ -91,25 +93,26 @@ vec3 mlvq_decode(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v
   mlvq_uniform_index(clamp(theta_v, 0.0, 90.0), 90.0 / float(n_theta - 1), n_theta - 2, it, wt);
   mlvq_uniform_index(clamp(view_phi, 0.0, 360.0), 360.0 / float(n_phi), n_phi - 1, ip, wp);
 
-  int texel = y * width + x;
-  int slot6 = itab(itab(H_PDF6_SLICES) + texel) - 1;
+  vec3 hw = mlvq_hermite_weights(ib, wb, n_beta);
+  int f6 = itab(H_F_MLVQ6) + 2 * (y * width + x); /* (pdf6 scale, slot + 1) */
+  int slot6 = int(ftab(f6 + 1)) - 1;
   if (slot6 < 0) {
     return vec3(0.0);
   }
   vec3 rgb = vec3(0.0);
   for (int k = 0; k < 2; k++) {
     int phi = (k == 1) ? (ip + 1) % n_phi : ip;
-    int i4 = slot6 * n_phi + phi;
-    int idx3 = itab(itab(H_PDF4_SLICES) + i4);
-    float s4 = ftab(itab(H_F_PDF4_SCALE) + i4) * ((k == 1) ? wp : 1.0 - wp);
+    int f4 = itab(H_F_MLVQ4) + 2 * (slot6 * n_phi + phi); /* (pdf4 scale, pdf3 row) */
+    float s4 = ftab(f4) * ((k == 1) ? wp : 1.0 - wp);
     for (int j = 0; j < 2; j++) {
-      int i3 = idx3 * n_theta + it + j;
-      float s3 = ftab(itab(H_F_PDF3_SCALE) + i3) * ((j == 1) ? wt : 1.0 - wt);
-      rgb += mlvq_pdf2(itab(itab(H_PDF3_SLICES) + i3), ia, wa, ib, wb, n_beta, n_alpha) *
+      int f3 = itab(H_F_MLVQ3) + 4 * (int(ftab(f4 + 1)) * n_theta + it + j);
+      float s3 = ftab(f3) * ((j == 1) ? wt : 1.0 - wt);
+      rgb += mlvq_pdf2(int(ftab(f3 + 1)), int(ftab(f3 + 2)), ia, wa, ib, wb, hw, n_beta,
+                       n_alpha) *
              (s4 * s3);
     }
   }
-  rgb *= ftab(itab(H_F_PDF6_SCALE) + texel);
+  rgb *= ftab(f6);
   if (itab(H_HDR) != 0) {
     rgb /= ftab(F_HDR_VALUE);
   }

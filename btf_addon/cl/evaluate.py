@@ -27,8 +27,8 @@ class KernelEvaluator:
         packed = pack(btf)  # raises UnsupportedBTFError for procedural codecs
         self.ctx = cl_context
         self._cl = cl
-        program = build_program(cl_context.context, cl_context.device, "btf_eval.cl", {})
-        self.kernel = cl.Kernel(program, "eval_btf")  # retrieved once, reused per chunk
+        self.program = build_program(cl_context.context, cl_context.device, "btf_eval.cl", {})
+        self.kernel = cl.Kernel(self.program, "eval_btf")  # retrieved once, reused per chunk
         self._ints = self._buffer(packed.ints.ravel())
         self._floats = self._buffer(packed.floats.ravel())
 

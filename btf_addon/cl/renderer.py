@@ -63,6 +63,9 @@ class CLRenderer:
         self.scene, self.width, self.height, self.ctx = scene, width, height, cl_context
         self.film = film
         self.features = features or analyse(scene)
+        #: True: launches split the same way every run (bit-identical frames, render/launch.py);
+        #: None: as BTF_FIXED_LAUNCHES says; False: sized by measured cost.
+        self.fixed_launch_split: bool | None = None
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, self.features.defines()
         )
@@ -192,7 +195,7 @@ class CLRenderer:
         Returns (h, w, k) arrays averaged over every sample rendered."""
         cl = self.cl
         w, h = self.width, self.height
-        plan = LaunchPlan(w, h, samples)
+        plan = LaunchPlan(w, h, samples, fixed=self.fixed_launch_split)
         mf = cl.mem_flags
         buffers = [
             cl.Buffer(self.ctx.context, mf.WRITE_ONLY, plan.max_rows * w * 4 * k) for k in channels

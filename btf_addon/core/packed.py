@@ -33,7 +33,7 @@ from .errors import UnsupportedBTFError
 from .model import BTF, DelegatingBTF
 
 TABLE_WIDTH = 4096  # texels per row of both streams
-HEADER_INTS = 40  # integer header slots reserved (INT_HEADER uses the first ones)
+HEADER_INTS = 48  # integer header slots reserved (INT_HEADER uses the first ones)
 HEADER_FLOATS = 12  # float header slots reserved
 MAGIC = 0xB7F1  # header check value in slot H_MAGIC, exact in float32
 MAX_EXACT_INT = 1 << 24
@@ -69,6 +69,12 @@ INT_HEADER: tuple[str, ...] = (
     "f_pdf4_scale",
     "f_pdf6_scale",
     "f_beta",
+    # MLVQ, the decode's own interleaved copies (mlvq_fast_tables): float-stream offsets
+    "f_mlvq6",
+    "f_mlvq4",
+    "f_mlvq3",
+    "f_mlvq2",
+    "f_mlvq_ab",
     # dense (shares width and height)
     "n_lights",
     "f_data",
@@ -297,4 +303,38 @@ def pack(btf: BTF) -> PackedTables:
     writer = TableWriter()
     writer.set(magic=MAGIC, codec=codec.codec_id, value_scale=btf.meta.value_scale)
     codec.pack(btf, writer)
+    if codec.name == "mlvq":
+        mlvq_fast_tables(btf.t, writer)
     return writer.finish(btf.meta.name)
+
+
+def mlvq_fast_tables(t: dict[str, np.ndarray], out: TableWriter) -> None:
+    """The MLVQ tables again, interleaved in the order the device decode reads them, so each
+    step of its chain of dependent reads is one read of one cache line instead of two or three
+    (docs/accuracy.md "Decode throughput"). Exact copies: every value is the original float32,
+    every index an integer below 2^24 (exact as float32, which ``finish`` checks).
+
+    f_mlvq6: per texel (pdf6 scale, pdf6 slot) — float2; f_mlvq4: per (slot, φ)
+    (pdf4 scale, pdf3 row) — float2; f_mlvq3: per (row, θ) (pdf3 scale, luminance function,
+    colour function, 0) — float4; f_mlvq2: per (luminance function, α) (pdf2 scale, pdf1
+    curve) — float2; f_mlvq_ab: per (colour slice, β node) its (Cb, Cr) — float2, so the two
+    nodes of a β interval are one 4-float read (index_ab and ab_colors resolved)."""
+    f32 = np.float32
+
+    def pairs(*columns: np.ndarray) -> np.ndarray:
+        return np.stack([np.asarray(c).ravel().astype(f32) for c in columns], axis=-1)
+
+    for name in ("pdf2_indices", "pdf3_slices", "pdf4_slices", "pdf6_slices", "pdf2_slices"):
+        if t[name].size and int(t[name].max()) >= MAX_EXACT_INT:
+            raise UnsupportedBTFError(f"MLVQ table {name} holds an index of 2^24 or more")
+    idx2 = t["pdf3_slices"].ravel()
+    fns = t["pdf2_indices"][idx2]
+    f3 = pairs(t["pdf3_scale"], fns[:, 0], fns[:, 1], np.zeros(len(idx2)))
+    out.float_table(np.zeros(-out._float_cursor % 4, f32))  # f_mlvq3 rows 16-byte aligned
+    out.set(
+        f_mlvq3=out.float_table(f3),
+        f_mlvq6=out.float_table(pairs(t["pdf6_scale"], t["pdf6_slices"])),
+        f_mlvq4=out.float_table(pairs(t["pdf4_scale"], t["pdf4_slices"])),
+        f_mlvq2=out.float_table(pairs(t["pdf2_scale"], t["pdf2_slices"])),
+        f_mlvq_ab=out.float_table(t["ab_colors"][t["index_ab"]].astype(f32)),
+    )

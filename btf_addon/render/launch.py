@@ -9,10 +9,16 @@ most BAND_PIXELS pixels.
 
 Pure planning, no device and no clock: the caller runs each ``Launch`` the plan yields, times
 it and reports the seconds with ``record`` before asking for the next one.
+
+Fixed split (``fixed=True``, or ``BTF_FIXED_LAUNCHES=1`` in the environment): launches of
+FIXED_LAUNCH_PIXELS pixels' rows × FIXED_LAUNCH_SAMPLES samples whatever the timings, so a frame
+is bit-identical between runs and machines with the same device (farms that diff frames). The
+measured split is not: which samples share a launch changes the float rounding of the sums.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -22,6 +28,14 @@ BAND_PIXELS = 1 << 17  # most pixels per kernel launch: bounds device memory
 FIRST_LAUNCH_PIXELS = 1 << 14  # the first launch measures the cost per pixel
 LAUNCH_SECONDS = 0.1  # target per launch: cancel answers within a few times this
 PASS_SECONDS = 2.0  # target per progressive pass of the Sampled mode (preview cadence)
+FIXED_LAUNCH_PIXELS = 1 << 14  # fixed split: rows per launch cover about this many pixels
+FIXED_LAUNCH_SAMPLES = 4  # fixed split: samples per launch
+FIXED_ENV = "BTF_FIXED_LAUNCHES"  # "1": every plan made without ``fixed`` given is fixed
+
+
+def fixed_by_default() -> bool:
+    """Whether the environment asks for the fixed split (BTF_FIXED_LAUNCHES=1)."""
+    return os.environ.get(FIXED_ENV, "").strip().lower() in ("1", "true", "yes", "on")
 
 
 @dataclass(frozen=True)
@@ -56,6 +70,7 @@ class LaunchPlan:
         first_launch_pixels: int | None = None,
         launch_seconds: float | None = None,
         pass_seconds: float | None = None,
+        fixed: bool | None = None,
     ):
         self.width, self.height, self.samples = width, height, samples
         band_pixels = BAND_PIXELS if band_pixels is None else band_pixels
@@ -67,6 +82,10 @@ class LaunchPlan:
         self.cost: float | None = None  # seconds per pixel-sample, measured (decaying maximum)
         self._last_work = 0  # rows × samples of the last launch
         self._rows = max(1, min(self.max_rows, first_pixels // width))
+        #: Fixed split: the same launches every run (None: as BTF_FIXED_LAUNCHES says).
+        self.fixed = fixed_by_default() if fixed is None else fixed
+        if self.fixed:
+            self._rows = max(1, min(self.max_rows, FIXED_LAUNCH_PIXELS // max(width, 1)))
 
     def record(self, launch: Launch, seconds: float) -> None:
         """The measured duration of ``launch``: sizes the launches after it."""
@@ -78,6 +97,8 @@ class LaunchPlan:
         self._last_work = launch.rows * launch.samples
 
     def _samples_per_launch(self, first: int) -> int:
+        if self.fixed:
+            return min(FIXED_LAUNCH_SAMPLES, self.samples - first)
         if self.cost is None:
             return 1
         w, h = self.width, self.height
@@ -86,7 +107,7 @@ class LaunchPlan:
         return int(np.clip(min(per_pass, per_row), 1, self.samples - first))
 
     def _rows_for(self, count: int) -> int:
-        if self.cost is not None:
+        if self.cost is not None and not self.fixed:
             # Costs differ across the image (sky rows are cheap): grow a launch at most 2× over
             # the last one, so a cheap region cannot talk it into a huge one.
             limit = min(self.max_rows, max(1, 2 * self._last_work // count))

@@ -3,9 +3,16 @@
 Shadows: a ray towards a light can only be blocked by geometry. With a single convex mesh no
 point of it can shadow another (a point's own side facing away from the light is already dark
 by n·l), so shadow rays are skipped; any second mesh, or a non-convex one, turns them on.
-The same argument holds for point and area lights outside the mesh. Area-light sampling is
-compiled only when the scene has an area light. The result becomes ``-D`` defines (few
-variants: BlendLuxCore's users' first complaint).
+The same argument holds for point and area lights outside the mesh. Each light type's code
+(sun; point and spot; area) is compiled only when the scene has such a light; each codec's
+decoder (MLVQ; dense; svd; the analytic ones) only when a material uses it; a black World
+compiles no environment sampling. The result becomes ``-D`` defines.
+
+Variants: a scene needs exactly one program (every final-render kernel is in it), cached on
+disk by its define set (cl/programs.py). There are 9 yes/no defines (shadows, 3 light types,
+environment, 4 codec families), so at most 2^9 = 512 variants exist, 480 with at least one
+codec; a user compiles only those their scenes need (one per scene). docs/accuracy.md
+"Specialisation" measures what each one saves.
 """
 
 from __future__ import annotations
@@ -14,8 +21,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lights import AreaLight
+from .lights import AreaLight, PointLight, SunLight
 from .scene import Scene
+
+#: Codec name → the define compiling its decoder (kernels/include/btf_packed.h).
+CODEC_DEFINES = {
+    "mlvq": "HAS_MLVQ",
+    "dense": "HAS_DENSE",
+    "svd": "HAS_SVD",
+    "lambertian": "HAS_ANALYTIC",
+    "ggx": "HAS_ANALYTIC",
+    "principled": "HAS_ANALYTIC",
+}
+ALL_CODECS = frozenset(CODEC_DEFINES)
 
 #: Above this many face × vertex tests, convexity is not checked and shadows stay on.
 MAX_CONVEXITY_WORK = 50_000_000
@@ -23,12 +41,30 @@ MAX_CONVEXITY_WORK = 50_000_000
 
 @dataclass(frozen=True)
 class SceneFeatures:
+    """What the scene calls for. The defaults compile everything (the unspecialised program):
+    a caller that builds features by hand gets correct, if slower, kernels."""
+
     shadows: bool
     environment_texture: bool
-    area_lights: bool = False
+    area_lights: bool = True
+    sun_lights: bool = True
+    point_lights: bool = True  # point and spot
+    environment: bool = True  # False: a black World
+    codecs: frozenset[str] = ALL_CODECS
 
     def defines(self) -> dict[str, int]:
-        return {"HAS_SHADOWS": int(self.shadows), "HAS_AREA_LIGHTS": int(self.area_lights)}
+        out = {
+            "HAS_SHADOWS": int(self.shadows),
+            "HAS_AREA_LIGHTS": int(self.area_lights),
+            "HAS_SUN_LIGHTS": int(self.sun_lights),
+            "HAS_POINT_LIGHTS": int(self.point_lights),
+            "HAS_ENVIRONMENT": int(self.environment),
+        }
+        unknown = self.codecs - ALL_CODECS  # a codec without its own define: compile all
+        for define in sorted(set(CODEC_DEFINES.values())):
+            wanted = {c for c, d in CODEC_DEFINES.items() if d == define}
+            out[define] = int(bool(unknown) or bool(self.codecs & wanted))
+        return out
 
 
 def is_convex(corners: np.ndarray, tolerance: float = 1e-4) -> bool:
@@ -61,4 +97,8 @@ def analyse(scene: Scene) -> SceneFeatures:
         shadows=shadows,
         environment_texture=env.width * env.height > 1,
         area_lights=any(isinstance(light, AreaLight) for light in scene.lights),
+        sun_lights=any(isinstance(light, SunLight) for light in scene.lights),
+        point_lights=any(isinstance(light, PointLight) for light in scene.lights),
+        environment=not env.is_black,
+        codecs=frozenset(m.btf.meta.codec for m in scene.materials),
     )

@@ -15,8 +15,16 @@
 #define TYPE_AREA 2
 #define AREA_GRID 4
 
+/* Light-type variants (btf_addon/scene/analysis.py): only the types the scene has are
+ * compiled; undefined means all. Point covers spot lights (a spot is a point with a cone). */
 #ifndef HAS_AREA_LIGHTS
 #define HAS_AREA_LIGHTS 1
+#endif
+#ifndef HAS_SUN_LIGHTS
+#define HAS_SUN_LIGHTS 1
+#endif
+#ifndef HAS_POINT_LIGHTS
+#define HAS_POINT_LIGHTS 1
 #endif
 
 /* The light's sample for the square's point u ∈ [0, 1)²; returns E (0: no light this way). */
@@ -25,11 +33,13 @@ inline float3 light_sample(__global const float *L, float3 p, float2 u, bool jit
 {
   int type = (int)L[3];
   float3 rgb = vload3(0, L + 4 * 1);
+#if HAS_SUN_LIGHTS
   if (type == TYPE_SUN) {
     *dir = vload3(0, L);
     *dist = INFINITY;
     return rgb;
   }
+#endif
   float3 centre = vload3(0, L);
 #if HAS_AREA_LIGHTS
   if (type == TYPE_AREA) {
@@ -50,6 +60,11 @@ inline float3 light_sample(__global const float *L, float3 p, float2 u, bool jit
     return cos_light > 0.0f ? rgb * (cos_light * area / fmax(len * len, 1e-12f)) : (float3)(0.0f);
   }
 #endif
+#if !HAS_POINT_LIGHTS
+  *dir = (float3)(0.0f, 0.0f, 1.0f); /* not reached: the scene has no point or spot light */
+  *dist = 0.0f;
+  return (float3)(0.0f);
+#else
   float3 target = centre;
   float radius = L[7];
   if (jitter && radius > 0.0f) { /* a disc of the light's radius facing the point */
@@ -76,6 +91,7 @@ inline float3 light_sample(__global const float *L, float3 p, float2 u, bool jit
     }
   }
   return rgb * (mask / fmax(len * len, 1e-12f));
+#endif
 }
 
 /* All Blender lights at a surface point; smp == 0 → deterministic points. Delta and area

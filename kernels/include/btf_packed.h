@@ -19,6 +19,21 @@
 
 typedef __global const float *Stream;
 
+/* Codec variants (btf_addon/scene/analysis.py): a program compiles only the decoders of the
+ * codecs its scene has; undefined means all (eval_btf, tests). */
+#ifndef HAS_MLVQ
+#define HAS_MLVQ 1
+#endif
+#ifndef HAS_DENSE
+#define HAS_DENSE 1
+#endif
+#ifndef HAS_SVD
+#define HAS_SVD 1
+#endif
+#ifndef HAS_ANALYTIC
+#define HAS_ANALYTIC 1
+#endif
+
 inline float btf_mod(float x, float m)
 {
   return x - m * floor(x / m);
@@ -32,111 +47,155 @@ inline void btf_uniform_index(float x, float step, int max_index, int *i, float 
 }
 
 /* --- MLVQ --------------------------------------------------------------------------------- */
+/* Where the time goes (docs/accuracy.md "Decode throughput"): a decode is 4 (φ, θ) corners ×
+ * 2 α nodes = 8 luminance curves and 8 colour curves, each behind a chain of 4–6 dependent
+ * table reads, and the light angles. So the per-decode constants are computed once (the
+ * Hermite step's three weights, the colour curves' two, every table offset), each curve is
+ * one 3-float read, and the light's (β, α) comes from the direction vector with one sincos
+ * instead of four trigonometric calls. Same arithmetic as btf_addon/core/mlvq.py up to float
+ * rounding (tests/kernels/test_decode_speed.py states the tolerance). */
 
-inline float mlvq_pdf1(Stream I, Stream F, int s, int i, float w, int n_beta)
+/* The Hermite step of mlvq_pdf1 (core/mlvq.py _pdf1) as three weights on p[i-1], p[i], p[i+1]:
+ * left tangent 0.5·(p1 − p[i−1]) (p1 − p0 at i = 0), right 0.5·(p1 − p0) (p1 − p0 at the last
+ * interval). The same for every curve of one decode. */
+inline float3 mlvq_hermite_weights(int i, float w, int n_beta)
 {
-  int row = ITAB(H_F_PDF1) + s * n_beta;
-  float p0 = FTAB(row + i), p1 = FTAB(row + i + 1);
-  float m0 = (i == 0) ? p1 - p0 : 0.5f * (p1 - FTAB(row + i - 1));
-  float m1 = (i == n_beta - 2) ? p1 - p0 : 0.5f * (p1 - p0);
   float t2 = w * w, t3 = t2 * w;
   float h01 = -2.0f * t3 + 3.0f * t2;
   float h00 = 1.0f - h01;
   float h11 = t3 - t2;
   float h10 = h11 - t2 + w;
-  return h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1;
-}
-
-inline float2 mlvq_ab(Stream I, Stream F, int c, int i, float w, int n_beta)
-{
-  int row = ITAB(H_INDEX_AB) + c * n_beta;
-  int ab = ITAB(H_F_AB_COLORS);
-  int a = ITAB(row + i), b = ITAB(row + i + 1);
-  float2 ca = (float2)(FTAB(ab + 2 * a), FTAB(ab + 2 * a + 1));
-  float2 cb = (float2)(FTAB(ab + 2 * b), FTAB(ab + 2 * b + 1));
-  return ca * (1.0f - w) + cb * w;
-}
-
-inline float3 mlvq_pdf2(Stream I, Stream F, int idx2, int ia, float wa, int ib, float wb,
-                        int n_beta, int n_alpha)
-{
-  int lum_fn = ITAB(ITAB(H_PDF2_INDICES) + 2 * idx2);
-  int col_fn = ITAB(ITAB(H_PDF2_INDICES) + 2 * idx2 + 1);
-  float lum = 0.0f;
-  float2 cbcr = (float2)(0.0f);
-  for (int k = 0; k < 2; k++) {
-    int a = ia + k;
-    float w = k ? wa : 1.0f - wa;
-    int li = lum_fn * n_alpha + a;
-    lum += w * FTAB(ITAB(H_F_PDF2_SCALE) + li) *
-           mlvq_pdf1(I, F, ITAB(ITAB(H_PDF2_SLICES) + li), ib, wb, n_beta);
-    cbcr += w * mlvq_ab(I, F, ITAB(ITAB(H_PDF2_COLOURS) + col_fn * n_alpha + a), ib, wb, n_beta);
+  float gm = (i == n_beta - 2) ? 1.0f : 0.5f;
+  if (i == 0) { /* m0 = p1 − p0 */
+    return (float3)(0.0f, h00 - h10 - gm * h11, h01 + h10 + gm * h11);
   }
+  return (float3)(-0.5f * h10, h00 - gm * h11, h01 + 0.5f * h10 + gm * h11);
+}
+
+typedef struct {
+  int n_beta, n_alpha, n_theta, n_phi;
+  int ib, ia, it, ip;
+  float wa, wt, wp, wb;
+  float3 hw; /* mlvq_hermite_weights(ib, wb) */
+  /* table offsets, read once */
+  int pdf2_col, pdf1, f2, fab;
+} MLVQCell;
+
+/* A curve s of the pdf1 table at the cell's β: one 3-float read (p[i−1] is read at i = 0 too,
+ * with weight 0: the float stream's header precedes every table, so the read stays inside). */
+inline float mlvq_curve(Stream F, const MLVQCell *c, int s)
+{
+  return dot(vload3(0, F + c->pdf1 + s * c->n_beta + c->ib - 1), c->hw);
+}
+
+/* One 2D function at (α, β) from its f_mlvq3 entry e = (scale, luminance fn, colour fn, 0):
+ * luminance and colour, then YCbCr/LogLuv → RGB. */
+inline float3 mlvq_pdf2(Stream I, Stream F, const MLVQCell *c, float4 e)
+{
+  int li = (int)e.y * c->n_alpha + c->ia;
+  int ci = c->pdf2_col + (int)e.z * c->n_alpha + c->ia;
+  float2 f0 = vload2(li, F + c->f2), f1 = vload2(li + 1, F + c->f2); /* (scale, curve) */
+  float lum = (1.0f - c->wa) * f0.x * mlvq_curve(F, c, (int)f0.y) +
+              c->wa * f1.x * mlvq_curve(F, c, (int)f1.y);
+  /* (Cb, Cr) at the interval's two β nodes, one read per colour slice */
+  float4 a0 = vload4(0, F + c->fab + 2 * (ITAB(ci) * c->n_beta + c->ib));
+  float4 a1 = vload4(0, F + c->fab + 2 * (ITAB(ci + 1) * c->n_beta + c->ib));
+  float2 cbcr = (1.0f - c->wa) * (a0.xy * (1.0f - c->wb) + a0.zw * c->wb) +
+                c->wa * (a1.xy * (1.0f - c->wb) + a1.zw * c->wb);
   if (ITAB(H_HDR)) {
     return btf_logluv_to_rgb(lum, cbcr.x, cbcr.y);
   }
   return btf_ycbcr_to_rgb(lum, cbcr.x, cbcr.y);
 }
 
-/* Angles in degrees, theta <= 90: the original decoder's raw RGB. */
-inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float theta_i, float phi_i,
+/* Everything of a decode that does not depend on the texel: indices and weights of the
+ * angles, table offsets. Angles in degrees, theta <= 90, and wi the unit light direction of
+ * (theta_i, phi_i). A bilinear lookup computes it once for its four texels. */
+inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
                           float theta_v, float phi_v)
 {
-  int n_beta = ITAB(H_N_BETA), n_alpha = ITAB(H_N_ALPHA);
-  int n_theta = ITAB(H_N_THETA), n_phi = ITAB(H_N_PHI);
+  MLVQCell c;
+  c.n_beta = ITAB(H_N_BETA);
+  c.n_alpha = ITAB(H_N_ALPHA);
+  c.n_theta = ITAB(H_N_THETA);
+  c.n_phi = ITAB(H_N_PHI);
+  float view_phi = btf_mod(360.0f - phi_v, 360.0f);
+  /* The original rotates the light by φ' = φv − φi − 90° and takes x = cos φ'·sin θi,
+   * y = sin φ'·sin θi: in terms of wi = (sin θi cos φi, sin θi sin φi, cos θi) that is
+   * x = sin φv·wi.x − cos φv·wi.y, y = −(cos φv·wi.x + sin φv·wi.y). */
+  float cos_pv;
+  float sin_pv = sincos(radians(phi_v), &cos_pv);
+  float bx = sin_pv * wi.x - cos_pv * wi.y, by = -(cos_pv * wi.x + sin_pv * wi.y);
+  bx = clamp(bx, -1.0f, 1.0f);
+
+  /* (x, y, wi.z) is wi turned about the normal, a unit vector: cos β = √(y² + z²) without
+   * the cancellation of √(1 − x²), and β, α as atan2 stay accurate at grazing light, where the
+   * original's asin in float32 loses half the digits (β → ±90°). */
+  float cos_beta = sqrt(by * by + wi.z * wi.z);
+  float beta = degrees(atan2(bx, cos_beta));
+  float alpha = cos_beta < 1e-3f ? 0.0f : degrees(atan2(by, fmax(wi.z, 0.0f)));
+  alpha = clamp(alpha, -90.0f, 90.0f);
+
+  if (ITAB(H_COS_BETA)) { /* samples uniform in sin β: the index straight from x = sin β */
+    c.ib = clamp((int)((bx + 1.0f) * 0.5f * (c.n_beta - 1)), 0, c.n_beta - 2);
+    float b0 = FTAB(ITAB(H_F_BETA) + c.ib), b1 = FTAB(ITAB(H_F_BETA) + c.ib + 1);
+    c.wb = (beta - b0) / (b1 - b0);
+  }
+  else {
+    btf_uniform_index(beta + 90.0f, 180.0f / (c.n_beta - 1), c.n_beta - 2, &c.ib, &c.wb);
+  }
+  btf_uniform_index(alpha + 90.0f, 180.0f / (c.n_alpha - 1), c.n_alpha - 2, &c.ia, &c.wa);
+  btf_uniform_index(clamp(theta_v, 0.0f, 90.0f), 90.0f / (c.n_theta - 1), c.n_theta - 2, &c.it,
+                    &c.wt);
+  btf_uniform_index(clamp(view_phi, 0.0f, 360.0f), 360.0f / c.n_phi, c.n_phi - 1, &c.ip, &c.wp);
+  c.hw = mlvq_hermite_weights(c.ib, c.wb, c.n_beta);
+  c.pdf2_col = ITAB(H_PDF2_COLOURS);
+  c.pdf1 = ITAB(H_F_PDF1);
+  c.f2 = ITAB(H_F_MLVQ2);
+  c.fab = ITAB(H_F_MLVQ_AB);
+  return c;
+}
+
+/* The original decoder's raw RGB at the texel holding uv, for the cell's angles. */
+inline float3 mlvq_texel(Stream I, Stream F, const MLVQCell *cp, float2 uv)
+{
+  MLVQCell c = *cp;
   int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
   int x = ((int)floor(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET)) % width;
   int y = ((int)floor(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET)) % height;
   x = (x + width) % width;
   y = (y + height) % height;
-
-  float view_phi = btf_mod(360.0f - phi_v, 360.0f);
-  float light_phi = btf_mod((360.0f - phi_i) - (90.0f + view_phi), 360.0f);
-  float th = radians(theta_i), ph = radians(light_phi);
-  float bx = cos(ph) * sin(th), by = sin(ph) * sin(th);
-  float beta = asin(clamp(bx, -1.0f, 1.0f));
-  float cos_beta = cos(beta);
-  float alpha = cos_beta < 1e-3f ? 0.0f : asin(clamp(by / cos_beta, -1.0f, 1.0f));
-  beta = clamp(degrees(beta), -90.0f, 90.0f);
-  alpha = clamp(degrees(alpha), -90.0f, 90.0f);
-
-  int ib, ia, it, ip;
-  float wb, wa, wt, wp;
-  if (ITAB(H_COS_BETA)) {
-    ib = clamp((int)((sin(radians(beta)) + 1.0f) * 0.5f * (n_beta - 1)), 0, n_beta - 2);
-    float b0 = FTAB(ITAB(H_F_BETA) + ib), b1 = FTAB(ITAB(H_F_BETA) + ib + 1);
-    wb = (beta - b0) / (b1 - b0);
-  }
-  else {
-    btf_uniform_index(beta + 90.0f, 180.0f / (n_beta - 1), n_beta - 2, &ib, &wb);
-  }
-  btf_uniform_index(alpha + 90.0f, 180.0f / (n_alpha - 1), n_alpha - 2, &ia, &wa);
-  btf_uniform_index(clamp(theta_v, 0.0f, 90.0f), 90.0f / (n_theta - 1), n_theta - 2, &it, &wt);
-  btf_uniform_index(clamp(view_phi, 0.0f, 360.0f), 360.0f / n_phi, n_phi - 1, &ip, &wp);
-
   int texel = y * width + x;
-  int slot6 = ITAB(ITAB(H_PDF6_SLICES) + texel) - 1;
+  float2 t6 = vload2(texel, F + ITAB(H_F_MLVQ6)); /* (pdf6 scale, slot + 1) */
+  int slot6 = (int)t6.y - 1;
   if (slot6 < 0) {
     return (float3)(0.0f);
   }
+  int f4 = ITAB(H_F_MLVQ4), f3 = ITAB(H_F_MLVQ3);
   float3 rgb = (float3)(0.0f);
   for (int k = 0; k < 2; k++) {
-    int phi = k ? (ip + 1) % n_phi : ip;
-    int i4 = slot6 * n_phi + phi;
-    int idx3 = ITAB(ITAB(H_PDF4_SLICES) + i4);
-    float s4 = FTAB(ITAB(H_F_PDF4_SCALE) + i4) * (k ? wp : 1.0f - wp);
-    for (int j = 0; j < 2; j++) {
-      int i3 = idx3 * n_theta + it + j;
-      float s3 = FTAB(ITAB(H_F_PDF3_SCALE) + i3) * (j ? wt : 1.0f - wt);
-      rgb += mlvq_pdf2(I, F, ITAB(ITAB(H_PDF3_SLICES) + i3), ia, wa, ib, wb, n_beta, n_alpha) *
-             (s4 * s3);
-    }
+    int phi = k ? (c.ip + 1) % c.n_phi : c.ip;
+    float2 t4 = vload2(slot6 * c.n_phi + phi, F + f4); /* (pdf4 scale, pdf3 row) */
+    float s4 = t4.x * (k ? c.wp : 1.0f - c.wp);
+    int i3 = (int)t4.y * c.n_theta + c.it;
+    float4 e0 = vload4(i3, F + f3), e1 = vload4(i3 + 1, F + f3);
+    rgb += mlvq_pdf2(I, F, &c, e0) * (s4 * (e0.x * (1.0f - c.wt)));
+    rgb += mlvq_pdf2(I, F, &c, e1) * (s4 * (e1.x * c.wt));
   }
-  rgb *= FTAB(ITAB(H_F_PDF6_SCALE) + texel);
+  rgb *= t6.x;
   if (ITAB(H_HDR)) {
     rgb /= FTAB(F_HDR_VALUE);
   }
   return rgb;
+}
+
+/* Angles in degrees, theta <= 90, and wi the unit light direction of (theta_i, phi_i): the
+ * original decoder's raw RGB. */
+inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_i, float phi_i,
+                          float theta_v, float phi_v)
+{
+  MLVQCell c = mlvq_cell(I, F, wi, theta_i, phi_i, theta_v, phi_v);
+  return mlvq_texel(I, F, &c, uv);
 }
 
 /* --- dense -------------------------------------------------------------------------------- */
@@ -239,15 +298,24 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
                            float phi_i, float theta_v, float phi_v)
 {
   int codec = ITAB(H_CODEC);
+#if HAS_MLVQ
   if (codec == CODEC_MLVQ) {
-    return mlvq_decode(I, F, uv, theta_i, phi_i, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
+    return mlvq_decode(I, F, uv, wi, theta_i, phi_i, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
   }
+#endif
+#if HAS_DENSE
   if (codec == CODEC_DENSE) {
     return dense_evaluate(I, F, uv, theta_i, phi_i, theta_v, phi_v);
   }
+#endif
+#if HAS_SVD
   if (codec == CODEC_SVD) {
     return svd_evaluate(I, F, uv, theta_i, phi_i, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
   }
+#endif
+#if !HAS_ANALYTIC
+  return (float3)(0.0f); /* not reached: the scene has no analytic material */
+#else
   float3 albedo = (float3)(FTAB(F_ALBEDO), FTAB(F_ALBEDO + 1), FTAB(F_ALBEDO + 2));
   if (codec == CODEC_LAMBERTIAN) {
     return albedo * (fmax(wi.z, 0.0f) / M_PI_F);
@@ -274,6 +342,7 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   float weight = (1.0f - metallic) * (1.0f - (f0d + (1.0f - f0d) *
                                                pown(1.0f - clamp(wo.z, 0.0f, 1.0f), 5)));
   return weight * albedo * on + fresnel * ggx;
+#endif
 }
 
 inline float2 btf_theta_phi_deg(float3 d)
@@ -299,6 +368,18 @@ inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi,
   float x0 = btf_mod(i0.x, size.x), y0 = btf_mod(i0.y, size.y);
   float x1 = btf_mod(x0 + 1.0f, size.x), y1 = btf_mod(y0 + 1.0f, size.y);
   float3 sum = (float3)(0.0f);
+#if HAS_MLVQ
+  if (ITAB(H_CODEC) == CODEC_MLVQ) { /* the four texels share the angles' work */
+    MLVQCell c = mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
+    for (int k = 0; k < 4; k++) {
+      float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
+      float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
+      float2 centre = (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y);
+      sum += w * (mlvq_texel(I, F, &c, centre) * FTAB(F_VALUE_SCALE));
+    }
+    return sum;
+  }
+#endif
   for (int k = 0; k < 4; k++) {
     float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
     float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
