@@ -100,6 +100,8 @@ def render(engine, depsgraph) -> None:
                 "(first render with these scene features; cached afterwards)",
             )
         renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
+        # None: the environment's choice (BTF_FIXED_LAUNCHES), as the command line.
+        renderer.fixed_launch_split = settings.fixed_launch_split or None
     except OpenCLCompileError as exc:
         # A bug in kernels/ or a driver rejecting valid code: falling back would hide it
         # behind a different image, so the render fails and says where the compiler stopped.

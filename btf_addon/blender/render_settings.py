@@ -94,6 +94,13 @@ class BTFRenderSettings(PropertyGroup):
         description="Virtual Lights final render: rays per pixel spread over the pixel filter, "
         "the N lights split between them (about the cost of one ray per pixel)",
     )
+    fixed_launch_split: BoolProperty(
+        name="Fixed Launch Split",
+        default=False,
+        description="Split F12 into device launches by a fixed plan instead of by measured "
+        "times, so re-renders on the same device are bit-identical (for farms that compare "
+        "frames); slightly slower progress updates",
+    )
     seed: IntProperty(
         name="Seed",
         default=0,

@@ -105,6 +105,13 @@ def add_parser(sub) -> None:
         "--seed", type=_at_least(0), metavar="N", help="randomisation of lights and samples' points"
     )
     p.add_argument(
+        "--fixed-launch-split",
+        action="store_const",
+        const=True,  # not given: None, the scene's setting
+        help="split the render into device launches by a fixed plan: bit-identical frames "
+        "between runs on one device (also BTF_FIXED_LAUNCHES=1)",
+    )
+    p.add_argument(
         "--filter",
         type=_pixel_filter,
         default=False,  # not given: the scene's film (None is "none": pixel centres)
@@ -251,6 +258,7 @@ def overrides(args) -> dict:
         "samples": args.samples,
         "max_bounces": args.bounces,
         "seed": args.seed,
+        "fixed_launch_split": args.fixed_launch_split,
     }
 
 

@@ -46,6 +46,9 @@ class RenderSettings:
     # per-pass jitter). False: every ray through the pixel centre, as files saved before it.
     use_antialiasing: bool = True
     aa_samples: int = 16  # subpixel positions of the Virtual Lights F12 (lights split over them)
+    # F12's launches split by a fixed plan instead of by measured times: frames bit-identical
+    # between runs on one device, for farms that diff frames (render/launch.py).
+    fixed_launch_split: bool = False
     pixel_filter: str = "BLACKMAN_HARRIS"  # scene.cycles.pixel_filter_type where Cycles is on
     filter_width: float = 1.5  # pixels, scene.cycles.filter_width
 
