@@ -23,6 +23,7 @@ MODULES = (
     "panels",  # Blender's own panels for this engine, by what it honours
     "file_handler",
     "accuracy_operator",  # after ui: its panel is a child of BTF_PT_render_settings
+    "compress_operator",
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",
