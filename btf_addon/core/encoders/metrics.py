@@ -93,3 +93,12 @@ def psnr(
         count += a.size
     mse = sq / count
     return math.inf if mse == 0 else 10.0 * math.log10(255.0**2 / mse)
+
+
+def grid_psnr(samples: np.ndarray, decoded: np.ndarray) -> float:
+    """RGB PSNR (peak 255) between the input's samples on the MLVQ grid and the encoding's
+    values at the same samples (``encoders.mlvq.sample_grid`` / ``_mlvq_grid_values``): the
+    quantisation loss alone, without the resampling between the UBO2003 directions and the
+    onion-slice grid."""
+    mse = float(np.mean((samples.astype(np.float64) - decoded) ** 2))
+    return math.inf if mse == 0 else 10.0 * math.log10(255.0**2 / mse)
