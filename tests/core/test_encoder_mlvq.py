@@ -191,5 +191,5 @@ def test_grid_psnr_is_the_quantisation_loss_at_the_samples(encoded):
     assert metrics.grid_psnr(samples, samples) == float("inf")
     value = metrics.grid_psnr(samples, _mlvq_grid_values(enc))
     # Above the PSNR at the UBO2003 directions (30.8 dB, which adds the resampling); measured
-    # 41 dB.
-    assert 35.0 <= value < 60.0
+    # 36.9 dB.
+    assert 34.0 <= value < 60.0
