@@ -45,6 +45,12 @@ def add_parser(sub) -> None:
         ("--colour-functions", "k_colour_functions", "colour runs over alpha"),
         ("--scale-bits", "scale_bits", "bits per stored scale (0: float32, unquantised)"),
         ("--seed", "seed", "random seed (the encoding is deterministic for a seed)"),
+        (
+            "--train-texels",
+            "train_texels",
+            "texels that train the codebooks (0: all); the "
+            "rest are assigned block by block, so memory follows this, not the texel count",
+        ),
     ):
         p.add_argument(flag, dest=field, type=int, default=getattr(d, field), help=f"{what}")
     p.add_argument(
@@ -58,10 +64,11 @@ def add_parser(sub) -> None:
 
 
 def estimate(width: int, height: int) -> memory.Estimate:
+    """The encoder's peak for ``width × height`` training texels."""
     return memory.Estimate(
-        f"compressing {width}×{height} texels",
+        f"compressing with {width * height} training texels",
         3 * width * height * _GRID_VALUES,
-        "compress a smaller crop of the material",
+        "train on fewer texels (--train-texels)",
     )
 
 
@@ -69,7 +76,10 @@ def cmd_compress(args) -> int:
     out = args.out if args.out.suffix else args.out.with_suffix(SUFFIX)
     memory.require(memory.btf_load(args.src))
     src = load_btf(args.src)
-    memory.require(estimate(src.meta.width, src.meta.height) + memory.btf_load(args.src))
+    n_train = src.meta.width * src.meta.height
+    if args.train_texels > 0:
+        n_train = min(n_train, args.train_texels)
+    memory.require(estimate(n_train, 1) + memory.btf_load(args.src))
     settings = MLVQSettings(
         **{
             k: getattr(args, k)
@@ -83,6 +93,7 @@ def cmd_compress(args) -> int:
                 "k_colour_functions",
                 "scale_bits",
                 "seed",
+                "train_texels",
             )
         }
     )

@@ -90,3 +90,12 @@ def test_nan_free_output_from_a_black_material(tmp_path, capsys):
     report = json.loads(capsys.readouterr().out)
     assert report["psnr_db"] is None  # identical (all zero): infinite PSNR, reported as null
     assert np.all(load_btf(out).evaluate_angles(np.full((4, 6), 30.0)) == 0)
+
+
+def test_train_texels_knob_reaches_the_encoder(source, tmp_path, capsys):
+    out = tmp_path / "sub.btfm"
+    args = ["compress", str(source), "-o", str(out), *KNOBS, "--train-texels", "4"]
+    assert main(args) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["settings"]["train_texels"] == 4
+    assert np.all(load_btf(out).tables()["pdf6_slices"] > 0)  # all 16 texels encoded

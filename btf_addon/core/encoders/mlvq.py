@@ -13,7 +13,9 @@ decoder interpolates between, so a sample decodes to the stored value:
 Values are taken on the decoder's 8-bit scale (raw = value / ``LDR_VALUE_SCALE``); an MLVQ
 source with the same grid sizes is read straight from its tables (its own samples, exactly).
 
-Levels, bottom up (sizes are knobs, ``MLVQSettings``):
+Levels, bottom up (sizes are knobs, ``MLVQSettings``), trained on the data of up to
+``train_texels`` texels (all of alu's 64²); every other texel is then sampled block by block
+and only given its P6 entry (memory: the training texels, not W × H):
 
 1. every 2D function (texel, φv, θv) over (α, β), RGB, normalised to a common mean, is vector
    quantised (k-means, ``k2`` entries);
@@ -85,6 +87,10 @@ class MLVQSettings:
     seed: int = 0
     iterations: int = 8
     train: int = 20000
+    #: Texels whose data trains the codebooks (a seeded sample; 0 = all). The rest are only
+    #: assigned a P4 row and scale, block by block: memory is bounded by this, not by W × H.
+    train_texels: int = 4096
+    block_texels: int = 1024
 
     def __post_init__(self) -> None:
         for name in ("k1", "k2", "k3", "k4", "k_colours", "k_index_ab", "k_colour_functions"):
@@ -118,13 +124,21 @@ def grid_params(btf: BTF, s: MLVQSettings, name: str | None = None) -> MLVQParam
     )
 
 
-def sample_grid(btf: BTF, p: MLVQParams, progress: Progress | None = None) -> np.ndarray:
-    """The input on the MLVQ grid: (H·W, n_phi, n_theta, n_alpha, n_beta, 3) float32, raw
-    8-bit scale. Raises BTFFormatError for non-finite values."""
+def sample_grid(
+    btf: BTF,
+    p: MLVQParams,
+    progress: Progress | None = None,
+    texels: np.ndarray | None = None,
+) -> np.ndarray:
+    """The input on the MLVQ grid: (T, n_phi, n_theta, n_alpha, n_beta, 3) float32, raw
+    8-bit scale, for ``texels`` (row-major indices; default all H·W). Raises BTFFormatError
+    for non-finite values."""
+    if texels is None:
+        texels = np.arange(btf.meta.width * btf.meta.height)
     if _same_grid(btf, p):
-        values = _mlvq_grid_values(btf)
+        values = _mlvq_grid_values(btf, texels)
     else:
-        values = _evaluate_grid(btf, p, progress)
+        values = _evaluate_grid(btf, p, progress, texels)
     check_finite(values, btf)
     return np.maximum(values, 0.0, out=values)
 
@@ -157,13 +171,15 @@ def _entry_rgb(t: dict[str, np.ndarray]) -> np.ndarray:
     return ycbcr_to_rgb(lum.astype(np.float64), ab[..., 0], ab[..., 1])
 
 
-def _mlvq_grid_values(btf: MLVQBTF) -> np.ndarray:
-    """An LDR MLVQ material's values at its own samples, straight from its tables."""
+def _mlvq_grid_values(btf: MLVQBTF, texels: np.ndarray | None = None) -> np.ndarray:
+    """An LDR MLVQ material's values at its own samples, straight from its tables, for
+    ``texels`` (row-major; default all)."""
     t, p = btf.t, btf.p
     h, w = t["pdf6_slices"].shape
-    ys, xs = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
-    y = (ys - p.rows_offset) % h
-    x = (xs - p.cols_offset) % w
+    if texels is None:
+        texels = np.arange(h * w)
+    y = (texels // w - p.rows_offset) % h
+    x = (texels % w - p.cols_offset) % w
     slot = t["pdf6_slices"][y, x].ravel().astype(np.int64) - 1
     s6 = t["pdf6_scale"][y, x].ravel() * (slot >= 0)
     slot = np.maximum(slot, 0)
@@ -176,8 +192,12 @@ def _mlvq_grid_values(btf: MLVQBTF) -> np.ndarray:
     return entries[idx2] * scale[..., None, None, None]
 
 
-def _evaluate_grid(btf: BTF, p: MLVQParams, progress: Progress | None) -> np.ndarray:
+def _evaluate_grid(
+    btf: BTF, p: MLVQParams, progress: Progress | None, texels: np.ndarray | None = None
+) -> np.ndarray:
     w, h = btf.meta.width, btf.meta.height
+    if texels is None:
+        texels = np.arange(h * w)
     theta_v = np.arange(p.n_theta) * (90.0 / (p.n_theta - 1))
     phi_dec = np.arange(p.n_phi) * (360.0 / p.n_phi)
     beta = np.radians(p.beta_angles_deg())
@@ -187,22 +207,22 @@ def _evaluate_grid(btf: BTF, p: MLVQParams, progress: Progress | None) -> np.nda
     theta_i = np.degrees(np.arccos(np.clip(z, -1.0, 1.0))).ravel()
     light_phi = np.degrees(np.arctan2(y, x)).ravel()
     n_light = len(theta_i)
-    ys, xs = np.meshgrid((np.arange(h) + 0.5) / h, (np.arange(w) + 0.5) / w, indexing="ij")
-    uv = np.column_stack([xs.ravel(), ys.ravel()])
-    out = np.empty((h * w, p.n_phi, p.n_theta, p.n_alpha, p.n_beta, 3), dtype=np.float32)
+    uv = np.column_stack([(texels % w + 0.5) / w, (texels // w + 0.5) / h])
+    n_tex = len(texels)
+    out = np.empty((n_tex, p.n_phi, p.n_theta, p.n_alpha, p.n_beta, 3), dtype=np.float32)
     for k, phi_k in enumerate(phi_dec):
         if progress is not None:
             progress(k / p.n_phi, "sampling the input on the MLVQ grid")
         phi_i = np.mod(360.0 - light_phi - 90.0 - phi_k, 360.0)
         for j, tv in enumerate(theta_v):
-            q = np.empty((h * w * n_light, 6))
+            q = np.empty((n_tex * n_light, 6))
             q[:, :2] = np.repeat(uv, n_light, axis=0)
-            q[:, 2] = np.tile(theta_i, h * w)
-            q[:, 3] = np.tile(phi_i, h * w)
+            q[:, 2] = np.tile(theta_i, n_tex)
+            q[:, 3] = np.tile(phi_i, n_tex)
             q[:, 4] = tv
             q[:, 5] = np.mod(360.0 - phi_k, 360.0)
             values = btf.evaluate_angles(q) / LDR_VALUE_SCALE
-            out[:, k, j] = values.reshape(h * w, p.n_alpha, p.n_beta, 3)
+            out[:, k, j] = values.reshape(n_tex, p.n_alpha, p.n_beta, 3)
     return out
 
 
@@ -228,7 +248,12 @@ def encode_mlvq(
     def cancel() -> None:
         step(*last)  # no new progress: the caller's chance to raise between k-means steps
 
-    values = sample_grid(btf, p, lambda f, w: step(0.25 * f, w))
+    h, w = btf.meta.height, btf.meta.width
+    if s.train_texels <= 0 or h * w <= s.train_texels:
+        train_texels = np.arange(h * w)
+    else:
+        train_texels = np.sort(rng.choice(h * w, s.train_texels, replace=False))
+    values = sample_grid(btf, p, lambda f, w: step(0.25 * f, w), train_texels)
     n_tex = len(values)
     n2 = (n_tex * s.n_phi * s.n_theta, s.n_alpha * s.n_beta * 3)
     x2 = values.reshape(n2)
@@ -284,12 +309,26 @@ def encode_mlvq(
         cancel,
     )
     t["pdf4_slices"], t["pdf4_scale"] = p4_idx, p4_scale
-    del decoded3, decoded4
+    del decoded3
 
-    h, w = btf.meta.height, btf.meta.width
     black = ~(x4.max(axis=1) > 0)
-    t["pdf6_slices"] = np.where(black, 0, idx4 + 1).reshape(h, w).astype(np.int32)
-    t["pdf6_scale"] = np.where(black, 0.0, s6).reshape(h, w).astype(np.float32)
+    slots = np.zeros(h * w, dtype=np.int32)
+    scales = np.zeros(h * w, dtype=np.float32)
+    slots[train_texels] = np.where(black, 0, idx4 + 1)
+    scales[train_texels] = np.where(black, 0.0, s6)
+    del values, x2, x3, x4
+    rest = np.setdiff1d(np.arange(h * w), train_texels)
+    for start in range(0, len(rest), s.block_texels):
+        step(0.85 + 0.1 * start / len(rest), "level 6: texels outside the training sample")
+        block = rest[start : start + s.block_texels]
+        x = sample_grid(btf, p, None, block).reshape(len(block), -1)
+        idx, scale = nearest(x, decoded4, scale_free=True)
+        lit = x.max(axis=1) > 0
+        slots[block] = np.where(lit, idx + 1, 0)
+        scales[block] = np.where(lit, scale, 0.0)
+    del decoded4
+    t["pdf6_slices"] = slots.reshape(h, w)
+    t["pdf6_scale"] = scales.reshape(h, w)
 
     step(0.95, "quantising scales")
     if s.scale_bits:
