@@ -24,6 +24,7 @@ MODULES = (
     "file_handler",
     "accuracy_operator",  # after ui: its panel is a child of BTF_PT_render_settings
     "film_panel",  # after ui: below the BTF render panel
+    "compress_operator",
     "wiimote_overlay",
     "wiimote_operator",
     "stereo_capture",

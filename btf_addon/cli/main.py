@@ -55,6 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
         accuracy_command,
         bridge_command,
         btf_commands,
+        compress_command,
         doctor,
         envmap_command,
         render_command,
@@ -80,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     render_command.add_parser(sub)
     bridge_command.add_parser(sub)
     accuracy_command.add_parser(sub)
+    compress_command.add_parser(sub)
     return parser
 
 

@@ -1,0 +1,139 @@
+"""MLVQ compressor (issue 16): codebook sizes / scale bits against ratio, PSNR, encode time and
+numpy decode throughput, on a synthetic BTF and on the shared BTFbase materials re-encoded
+from their own grid (``--real alu``; each real run takes minutes: run it alone).
+
+PSNR: RGB, peak 255 on the 8-bit scale, against the input at the UBO2003 81 × 81 directions at
+256 seeded texels (all texels of the synthetic one). For a BTFbase material the input is the
+decoded original material, not the raw UBO2003 images (not here), so the original tool's own
+row has PSNR ∞ by construction; its ratio is read from its quantreport.txt. "grid PSNR" is the
+same measure at the encoder's own samples (the onion-slice grid): the quantisation loss alone.
+
+Usage: python benchmarks/bench_compress.py [--real alu wallpaper] [--no-synthetic]
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import time
+
+import numpy as np
+from common import SHARED_BTFBASE, table
+
+from btf_addon.core.analytic import GGXBTF
+from btf_addon.core.dense import DenseBTF, tabulate
+from btf_addon.core.encoders import metrics
+from btf_addon.core.encoders.mlvq import (
+    MLVQSettings,
+    _mlvq_grid_values,
+    encode_mlvq,
+    sample_grid,
+)
+from btf_addon.core.mlvq import MLVQBTF
+
+HEADERS = [
+    "input",
+    "k1/k2/k3/k4",
+    "scale bits",
+    "stored ratio",
+    "packed ratio",
+    "PSNR dB",
+    "grid PSNR dB",
+    "encode s",
+    "decode Mq/s",
+]
+
+
+def synthetic(size: int = 16) -> DenseBTF:
+    """A rough GGX (roughness 0.6) tabulated on UBO2003, tinted per texel (two colours, a
+    brightness ramp): texel variety without lobes sharper than the MLVQ grid resolves."""
+    base = tabulate(GGXBTF(albedo=(0.55, 0.35, 0.2), roughness=0.6), width=1, height=1).data
+    y, x = np.mgrid[0:size, 0:size]
+    ramp = 0.4 + 0.6 * (x + y) / (2 * size - 2)
+    tint = np.where(((x // 4 + y // 4) % 2 == 0)[..., None], [1.0, 1.0, 1.0], [0.6, 0.9, 1.3])
+    return DenseBTF(base * (ramp[..., None] * tint)[None, None], name=f"synthetic {size}²")
+
+
+def decode_rate(btf, n: int = 200_000) -> float:
+    rng = np.random.default_rng(1)
+    angles = [rng.random(n) * limit for limit in (80, 360, 80, 360)]
+    q = np.column_stack([rng.random((n, 2)), *angles])
+    t0 = time.perf_counter()
+    btf.evaluate_angles(q)
+    return n / (time.perf_counter() - t0) / 1e6
+
+
+def row(name, src, settings: MLVQSettings, texels: int) -> list:
+    enc, stats = encode_mlvq(src, settings)
+    size = metrics.sizes(enc, settings.scale_bits)
+    w, h = src.meta.width, src.meta.height
+    value = metrics.psnr(src, enc, metrics.texel_subset(w, h, texels))
+    grid = metrics.grid_psnr(sample_grid(src, enc.p), _mlvq_grid_values(enc))
+    k = f"{settings.k1}/{settings.k2}/{settings.k3}/{settings.k4}"
+    return [
+        name,
+        k,
+        settings.scale_bits,
+        size.stored_ratio,
+        size.packed_ratio,
+        value,
+        grid,
+        stats.seconds,
+        decode_rate(enc),
+    ]
+
+
+def original_row(name: str, folder) -> list:
+    text = (folder / "quantreport.txt").read_text()
+    found = re.search(r"compressed quantized = \d+\s+ratio = ([\d.]+)", text)
+    plain = re.search(r"uncompressed = \d+ compressed = \d+\s+ratio = ([\d.]+)", text)
+    src = MLVQBTF.from_directory(folder)
+    c = src.t
+    k = f"{len(c['pdf1'])}/{len(c['pdf2_indices'])}/{len(c['pdf3_slices'])}/{len(c['pdf4_slices'])}"
+    return [
+        f"{name} (original tool)",
+        k,
+        8,
+        float(plain.group(1)) if plain else "?",
+        float(found.group(1)) if found else "?",
+        "∞ (reference)",
+        "∞ (reference)",
+        "19–29 h (2009)",
+        decode_rate(src),
+    ]
+
+
+def main(argv: list[str] | None = None) -> str:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--real", nargs="*", default=[])
+    parser.add_argument("--no-synthetic", action="store_true")
+    args = parser.parse_args(argv)
+    rows = []
+    if not args.no_synthetic:
+        src = synthetic()
+        for k1, k2, k3, k4, bits in (
+            (32, 32, 16, 4, 8),
+            (128, 128, 32, 8, 8),
+            (512, 512, 64, 16, 8),
+            (512, 512, 64, 16, 0),
+            (512, 512, 64, 16, 6),
+        ):
+            s = MLVQSettings(k1=k1, k2=k2, k3=k3, k4=k4, scale_bits=bits)
+            rows.append(row(src.meta.name, src, s, 0))
+            print(table(HEADERS, rows[-1:]), flush=True)
+    for name in args.real:
+        folder = SHARED_BTFBASE / name
+        if not folder.is_dir():
+            print(f"skipping {name}: {folder} not found")
+            continue
+        rows.append(original_row(name, folder))
+        src = MLVQBTF.from_directory(folder)
+        for k1, k2, k3, k4 in ((1400, 1700, 540, 34), (700, 850, 270, 17)):
+            s = MLVQSettings(k1=k1, k2=k2, k3=k3, k4=k4)
+            rows.append(row(f"{name} (ours)", src, s, 256))
+            print(table(HEADERS, rows[-1:]), flush=True)
+    return table(HEADERS, rows)
+
+
+if __name__ == "__main__":
+    print(main())

@@ -1,0 +1,172 @@
+"""Compress BTF (File › Export is not the place: it writes a material, not the scene):
+``bpy.ops.btf.compress(filepath=SRC, output=OUT.btfm, ...)`` encodes any BTF the add-on
+reads to our own MLVQ (core/encoders/mlvq.py).
+
+The encode runs on a worker thread (bpy-free: it reads only the loaded BTF and writes only the
+``Job``); a modal timer shows its progress in the status bar; Esc cancels between k-means
+steps. The output is written atomically after a finished encode, so a cancel leaves no file.
+Run from a script (no window), it encodes before returning.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from pathlib import Path
+
+from bpy.props import IntProperty, StringProperty
+from bpy.types import Operator
+
+from ..core.codecs import load_btf
+from ..core.container import SUFFIX, write_container
+from ..core.encoders import metrics
+from ..core.encoders.mlvq import MLVQSettings, encode_mlvq
+from ..core.errors import BTFError
+
+log = logging.getLogger(__name__)
+
+
+class CancelledError(Exception):
+    """Raised inside the encoder's progress callback when the user cancelled."""
+
+
+class Job:
+    """One encode on a worker thread; the modal timer reads ``fraction``/``text``."""
+
+    def __init__(self, src: str, out: Path, settings: MLVQSettings):
+        self.src, self.out, self.settings = src, out, settings
+        self.cancel = threading.Event()
+        self.done = threading.Event()
+        self.fraction, self.text = 0.0, "loading"
+        self.error: BaseException | None = None
+        self.summary = ""
+        self.thread = threading.Thread(target=self._work, name="btf-compress", daemon=True)
+
+    def _progress(self, fraction: float, text: str) -> None:
+        if self.cancel.is_set():
+            raise CancelledError
+        self.fraction, self.text = fraction, text
+
+    def _work(self) -> None:
+        try:
+            btf = load_btf(self.src)
+            encoded, stats = encode_mlvq(btf, self.settings, self._progress)
+            write_container(self.out, encoded)
+            size = metrics.sizes(encoded, self.settings.scale_bits)
+            self.summary = (
+                f"{self.out.name}: ratio {size.packed_ratio:.0f}:1 packed "
+                f"({size.stored_ratio:.0f}:1 as stored), {stats.seconds:.1f} s"
+            )
+        except CancelledError:
+            pass
+        except BTFError as exc:  # the user's input: the message says it all
+            self.error = exc
+        except Exception as exc:  # shown by the operator on the main thread
+            log.exception("compress failed")
+            self.error = exc
+        finally:
+            self.done.set()
+
+
+class BTF_OT_compress(Operator):
+    """Compress a BTF (BTFbase folder or .btfm, any codec) to MLVQ in a .btfm file"""
+
+    bl_idname = "btf.compress"
+    bl_label = "Compress BTF to MLVQ"
+    bl_options = {"REGISTER"}
+
+    filepath: StringProperty(name="Input", subtype="FILE_PATH")
+    output: StringProperty(name="Output", subtype="FILE_PATH")
+    k1: IntProperty(name="P1 Slices", default=MLVQSettings.k1, min=1)
+    k2: IntProperty(name="2D Functions", default=MLVQSettings.k2, min=1)
+    k3: IntProperty(name="P3 Rows", default=MLVQSettings.k3, min=1)
+    k4: IntProperty(name="P4 Rows", default=MLVQSettings.k4, min=1)
+    scale_bits: IntProperty(name="Scale Bits", default=MLVQSettings.scale_bits, min=0, max=16)
+    seed: IntProperty(name="Seed", default=0, min=0)
+
+    _timer = None
+    _job: Job | None = None
+
+    def _start(self) -> Job | None:
+        try:
+            if not self.filepath:
+                raise BTFError("choose the BTF to compress")
+            out = Path(self.output or Path(self.filepath).with_suffix(".mlvq" + SUFFIX))
+            out = out if out.suffix else out.with_suffix(SUFFIX)
+            settings = MLVQSettings(
+                k1=self.k1,
+                k2=self.k2,
+                k3=self.k3,
+                k4=self.k4,
+                scale_bits=self.scale_bits,
+                seed=self.seed,
+            )
+        except BTFError as exc:
+            self.report({"ERROR"}, str(exc))
+            return None
+        job = Job(self.filepath, out, settings)
+        job.thread.start()
+        return job
+
+    def _finish(self, job: Job) -> set[str]:
+        if job.error is not None:
+            self.report({"ERROR"}, f"Compress failed: {job.error}")
+            return {"CANCELLED"}
+        if job.cancel.is_set() and not job.summary:
+            self.report({"WARNING"}, "Compress cancelled: no file written")
+            return {"CANCELLED"}
+        self.report({"INFO"}, job.summary)
+        return {"FINISHED"}
+
+    def execute(self, context) -> set[str]:
+        job = self._start()
+        if job is None:
+            return {"CANCELLED"}
+        job.thread.join()
+        return self._finish(job)
+
+    def invoke(self, context, _event) -> set[str]:
+        if context.window is None:
+            return self.execute(context)
+        job = self._start()
+        if job is None:
+            return {"CANCELLED"}
+        self._job = job
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0, 100)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event) -> set[str]:
+        job = self._job
+        if event.type == "ESC":
+            job.cancel.set()
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        wm.progress_update(int(job.fraction * 100))
+        context.workspace.status_text_set(f"Compress BTF: {job.fraction:.0%} {job.text}")
+        if not job.done.is_set():
+            return {"PASS_THROUGH"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        return self._finish(job)
+
+
+CLASSES = (BTF_OT_compress,)
+
+
+def register() -> None:
+    import bpy
+
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    import bpy
+
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

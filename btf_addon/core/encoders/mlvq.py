@@ -1,0 +1,419 @@
+"""MLVQ encoder: any BTF → the multi-level vector quantisation that ``core/mlvq.py`` decodes.
+
+Resampling (the parameterisation grid). The input is evaluated at exactly the samples the
+decoder interpolates between, so a sample decodes to the stored value:
+
+* view: θv_j = j·90/(n_theta − 1), decoder azimuth φ'_k = k·360/n_phi, i.e. φv = 360 − φ'_k;
+* light (onion slices, relative to the view): β_b = the decoder's β positions
+  (``MLVQParams.beta_angles_deg``: uniform in sin β), α_a = −90 + a·180/(n_alpha − 1);
+  x = sin β, y = sin α cos β, z = cos α cos β → θi = acos z, φ' = atan2(y, x),
+  φi = 360 − φ' − 90 − φ'_k (the decoder's relation inverted);
+* texels: every texel centre, rows/columns offset 0.
+
+Values are taken on the decoder's 8-bit scale (raw = value / ``LDR_VALUE_SCALE``); an MLVQ
+source with the same grid sizes is read straight from its tables (its own samples, exactly).
+
+Levels, bottom up (sizes are knobs, ``MLVQSettings``), trained on the data of up to
+``train_texels`` texels (all of alu's 64²); every other texel is then sampled block by block
+and only given its P6 entry (memory: the training texels, not W × H):
+
+1. every 2D function (texel, φv, θv) over (α, β), RGB, normalised to a common mean, is vector
+   quantised (k-means, ``k2`` entries);
+2. each entry is split as the decoder rebuilds it: BT.601 studio YCbCr; per α the luminance
+   column over β = scale × a P1 vector (k-means, ``k1``); (Cb, Cr) per sample quantised to
+   ``k_colours`` colours; per α the β-run of colours → ``k_index_ab`` index rows; per entry the
+   α-run of index rows → ``k_colour_functions`` rows; the entries are then decoded exactly as
+   the decoder does, and every 2D function is re-assigned to its best decoded entry with its
+   least-squares scale;
+3. per (texel, φv) the θv run of (entry, scale) → ``k3`` P3 rows (k-means on the data,
+   centroids re-encoded by the decoded entries);
+4. per texel the φv run of (P3 row, scale) → ``k4`` P4 rows, likewise; P6 = the texel's P4 row
+   (1-based; 0 for an all-black texel) and its least-squares scale.
+
+Scales may then be quantised (``scale_bits``: uniform between each table's min and max, as the
+original tool's ``quantreport.txt`` mode 0); the container stores float32 either way, and the
+report counts the bits such a packing needs.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..colour import ycbcr_to_rgb
+from ..errors import BTFFormatError
+from ..mlvq import LDR_VALUE_SCALE, MLVQBTF, MLVQParams
+from ..model import BTF
+from .kmeans import kmeans, nearest
+
+#: ``progress(fraction 0..1, what)``; may raise (KeyboardInterrupt, a cancel exception) to stop.
+Progress = Callable[[float, str], None]
+
+#: Studio-swing BT.601: RGB = M · (Y − 16, Cb − 128, Cr − 128) (core/colour.py ycbcr_to_rgb).
+_M = np.array(
+    [
+        [1.1643828, 0.0, 1.5960273],
+        [1.1643828, -0.39176172, -0.81296875],
+        [1.1643828, 2.0172344, 0.0],
+    ]
+)
+_M_INV = np.linalg.inv(_M)
+_OFFSET = np.array([16.0, 128.0, 128.0])
+#: 2D functions are clustered at this mean RGB (8-bit scale): the luminance then sits well
+#: above the studio-swing offset of 16, as in the original's tables.
+_NORM_MEAN = 100.0
+
+
+@dataclass(frozen=True)
+class MLVQSettings:
+    """Codebook sizes, grid and scale quantisation. Defaults land near the original tool's
+    ratio on alu (64² texels; its counts: P1 1381, 2D 1645/1723, P3 539, P4 34)."""
+
+    k1: int = 1400
+    k2: int = 1700
+    k3: int = 540
+    k4: int = 34
+    k_colours: int = 8
+    k_index_ab: int = 16
+    k_colour_functions: int = 64
+    scale_bits: int = 8
+    n_beta: int = 11
+    n_alpha: int = 11
+    n_theta: int = 7
+    n_phi: int = 16
+    seed: int = 0
+    iterations: int = 8
+    train: int = 20000
+    #: Texels whose data trains the codebooks (a seeded sample; 0 = all). The rest are only
+    #: assigned a P4 row and scale, block by block: memory is bounded by this, not by W × H.
+    train_texels: int = 4096
+    block_texels: int = 1024
+
+    def __post_init__(self) -> None:
+        for name in ("k1", "k2", "k3", "k4", "k_colours", "k_index_ab", "k_colour_functions"):
+            if getattr(self, name) < 1:
+                raise BTFFormatError(f"MLVQ encoder: {name} must be at least 1")
+        if not (self.scale_bits == 0 or 2 <= self.scale_bits <= 16):
+            raise BTFFormatError("MLVQ encoder: scale_bits must be 0 (float32) or 2..16")
+        if self.n_beta < 3 or self.n_alpha < 2 or self.n_theta < 2 or self.n_phi < 1:
+            raise BTFFormatError("MLVQ encoder: grid needs n_beta ≥ 3, n_alpha ≥ 2, n_theta ≥ 2")
+
+
+@dataclass
+class EncodeStats:
+    seconds: float
+    counts: dict[str, int]
+
+
+def grid_params(btf: BTF, s: MLVQSettings, name: str | None = None) -> MLVQParams:
+    return MLVQParams(
+        n_beta=s.n_beta,
+        n_alpha=s.n_alpha,
+        n_theta=s.n_theta,
+        n_phi=s.n_phi,
+        use_cos_beta=True,
+        rows_offset=0,
+        cols_offset=0,
+        hdr_value=1.0,
+        n_views=btf.meta.n_views or 81,
+        n_lights=btf.meta.n_lights or 81,
+        name=name or btf.meta.name,
+    )
+
+
+def sample_grid(
+    btf: BTF,
+    p: MLVQParams,
+    progress: Progress | None = None,
+    texels: np.ndarray | None = None,
+) -> np.ndarray:
+    """The input on the MLVQ grid: (T, n_phi, n_theta, n_alpha, n_beta, 3) float32, raw
+    8-bit scale, for ``texels`` (row-major indices; default all H·W). Raises BTFFormatError
+    for non-finite values."""
+    if texels is None:
+        texels = np.arange(btf.meta.width * btf.meta.height)
+    if _same_grid(btf, p):
+        values = _mlvq_grid_values(btf, texels)
+    else:
+        values = _evaluate_grid(btf, p, progress, texels)
+    check_finite(values, btf)
+    return np.maximum(values, 0.0, out=values)
+
+
+def check_finite(values: np.ndarray, btf: BTF) -> None:
+    """One clear error for NaN or infinite samples (texels first axis), naming the texel."""
+    bad = ~np.isfinite(values)
+    if bad.any():
+        t = int(np.argwhere(bad)[0][0])
+        w = btf.meta.width
+        raise BTFFormatError(
+            f"{btf.meta.name}: the input has NaN or infinite values (first at texel "
+            f"x={t % w}, y={t // w}); fix the source before compressing"
+        )
+
+
+def _same_grid(btf: BTF, p: MLVQParams) -> bool:
+    if not isinstance(btf, MLVQBTF) or btf.p.hdr or not btf.p.use_cos_beta:
+        return False
+    q = btf.p
+    return (q.n_beta, q.n_alpha, q.n_theta, q.n_phi) == (p.n_beta, p.n_alpha, p.n_theta, p.n_phi)
+
+
+def _entry_rgb(t: dict[str, np.ndarray]) -> np.ndarray:
+    """Every P2 entry at its own samples: (n_entries, n_alpha, n_beta, 3) float64."""
+    lum_fn = t["pdf2_indices"][:, 0]
+    col_fn = t["pdf2_indices"][:, 1]
+    lum = t["pdf2_scale"][lum_fn][:, :, None] * t["pdf1"][t["pdf2_slices"][lum_fn]]
+    ab = t["ab_colors"][t["index_ab"][t["pdf2_colours"][col_fn]]]  # (n, α, β, 2)
+    return ycbcr_to_rgb(lum.astype(np.float64), ab[..., 0], ab[..., 1])
+
+
+def _mlvq_grid_values(btf: MLVQBTF, texels: np.ndarray | None = None) -> np.ndarray:
+    """An LDR MLVQ material's values at its own samples, straight from its tables, for
+    ``texels`` (row-major; default all)."""
+    t, p = btf.t, btf.p
+    h, w = t["pdf6_slices"].shape
+    if texels is None:
+        texels = np.arange(h * w)
+    y = (texels // w - p.rows_offset) % h
+    x = (texels % w - p.cols_offset) % w
+    slot = t["pdf6_slices"][y, x].ravel().astype(np.int64) - 1
+    s6 = t["pdf6_scale"][y, x].ravel() * (slot >= 0)
+    slot = np.maximum(slot, 0)
+    idx3 = t["pdf4_slices"][slot]  # (T, φ)
+    s4 = t["pdf4_scale"][slot]
+    idx2 = t["pdf3_slices"][idx3]  # (T, φ, θ)
+    s3 = t["pdf3_scale"][idx3]
+    entries = _entry_rgb(t).astype(np.float32)
+    scale = (s6[:, None, None] * s4[:, :, None] * s3).astype(np.float32)
+    return entries[idx2] * scale[..., None, None, None]
+
+
+def _evaluate_grid(
+    btf: BTF, p: MLVQParams, progress: Progress | None, texels: np.ndarray | None = None
+) -> np.ndarray:
+    w, h = btf.meta.width, btf.meta.height
+    if texels is None:
+        texels = np.arange(h * w)
+    theta_v = np.arange(p.n_theta) * (90.0 / (p.n_theta - 1))
+    phi_dec = np.arange(p.n_phi) * (360.0 / p.n_phi)
+    beta = np.radians(p.beta_angles_deg())
+    alpha = np.radians(-90.0 + np.arange(p.n_alpha) * (180.0 / (p.n_alpha - 1)))
+    a, b = np.meshgrid(alpha, beta, indexing="ij")  # (α, β)
+    x, y, z = np.sin(b), np.sin(a) * np.cos(b), np.cos(a) * np.cos(b)
+    theta_i = np.degrees(np.arccos(np.clip(z, -1.0, 1.0))).ravel()
+    light_phi = np.degrees(np.arctan2(y, x)).ravel()
+    n_light = len(theta_i)
+    uv = np.column_stack([(texels % w + 0.5) / w, (texels // w + 0.5) / h])
+    n_tex = len(texels)
+    out = np.empty((n_tex, p.n_phi, p.n_theta, p.n_alpha, p.n_beta, 3), dtype=np.float32)
+    for k, phi_k in enumerate(phi_dec):
+        if progress is not None:
+            progress(k / p.n_phi, "sampling the input on the MLVQ grid")
+        phi_i = np.mod(360.0 - light_phi - 90.0 - phi_k, 360.0)
+        for j, tv in enumerate(theta_v):
+            q = np.empty((n_tex * n_light, 6))
+            q[:, :2] = np.repeat(uv, n_light, axis=0)
+            q[:, 2] = np.tile(theta_i, n_tex)
+            q[:, 3] = np.tile(phi_i, n_tex)
+            q[:, 4] = tv
+            q[:, 5] = np.mod(360.0 - phi_k, 360.0)
+            values = btf.evaluate_angles(q) / LDR_VALUE_SCALE
+            out[:, k, j] = values.reshape(n_tex, p.n_alpha, p.n_beta, 3)
+    return out
+
+
+def encode_mlvq(
+    btf: BTF,
+    settings: MLVQSettings = MLVQSettings(),
+    progress: Progress | None = None,
+    name: str | None = None,
+) -> tuple[MLVQBTF, EncodeStats]:
+    """Compress ``btf`` → an ``MLVQBTF`` (LDR, 8-bit scale values) and its statistics."""
+    start = time.perf_counter()
+    s = settings
+    rng = np.random.default_rng(s.seed)
+    p = grid_params(btf, s, name)
+
+    last = [0.0, ""]
+
+    def step(fraction: float, what: str) -> None:
+        last[:] = [fraction, what]
+        if progress is not None:
+            progress(fraction, what)
+
+    def cancel() -> None:
+        step(*last)  # no new progress: the caller's chance to raise between k-means steps
+
+    h, w = btf.meta.height, btf.meta.width
+    if s.train_texels <= 0 or h * w <= s.train_texels:
+        train_texels = np.arange(h * w)
+    else:
+        train_texels = np.sort(rng.choice(h * w, s.train_texels, replace=False))
+    values = sample_grid(btf, p, lambda f, w: step(0.25 * f, w), train_texels)
+    n_tex = len(values)
+    n2 = (n_tex * s.n_phi * s.n_theta, s.n_alpha * s.n_beta * 3)
+    x2 = values.reshape(n2)
+
+    step(0.25, "level 2: clustering 2D functions")
+    mean2 = x2.mean(axis=1, dtype=np.float64)
+    lit = mean2 > 0
+    train_rows = np.flatnonzero(lit)
+    if len(train_rows) == 0:
+        train_rows = np.arange(1)
+    norm = np.where(lit, _NORM_MEAN / np.where(lit, mean2, 1.0), 0.0).astype(np.float32)
+    sample = train_rows
+    if len(sample) > s.train:
+        sample = np.sort(rng.choice(train_rows, s.train, replace=False))
+    centres2, _ = kmeans(x2[sample] * norm[sample, None], s.k2, rng, s.iterations, s.train, cancel)
+    if not lit.any():
+        centres2[:] = 0.0
+
+    step(0.45, "level 1: luminance slices and colours")
+    t = _split_entries(centres2.reshape(-1, s.n_alpha, s.n_beta, 3), s, rng, cancel)
+    decoded2 = _entry_rgb(t).reshape(len(centres2), -1).astype(np.float32)
+
+    step(0.55, "level 2: assigning 2D functions")
+    idx2, s3_inst = nearest(x2, decoded2, scale_free=True)
+
+    step(0.65, "level 3: clustering θv runs")
+    n3 = n_tex * s.n_phi
+    x3 = values.reshape(n3, -1)
+    p3_idx, p3_scale, decoded3, idx3, s4_inst = _level(
+        x3,
+        s.n_theta,
+        decoded2,
+        idx2.reshape(n3, -1),
+        s3_inst.reshape(n3, -1),
+        s.k3,
+        s,
+        rng,
+        cancel,
+    )
+    t["pdf3_slices"], t["pdf3_scale"] = p3_idx, p3_scale
+
+    step(0.8, "level 4: clustering φv runs")
+    x4 = values.reshape(n_tex, -1)
+    p4_idx, p4_scale, decoded4, idx4, s6 = _level(
+        x4,
+        s.n_phi,
+        decoded3,
+        idx3.reshape(n_tex, -1),
+        s4_inst.reshape(n_tex, -1),
+        s.k4,
+        s,
+        rng,
+        cancel,
+    )
+    t["pdf4_slices"], t["pdf4_scale"] = p4_idx, p4_scale
+    del decoded3
+
+    black = ~(x4.max(axis=1) > 0)
+    slots = np.zeros(h * w, dtype=np.int32)
+    scales = np.zeros(h * w, dtype=np.float32)
+    slots[train_texels] = np.where(black, 0, idx4 + 1)
+    scales[train_texels] = np.where(black, 0.0, s6)
+    del values, x2, x3, x4
+    rest = np.setdiff1d(np.arange(h * w), train_texels)
+    for start in range(0, len(rest), s.block_texels):
+        step(0.85 + 0.1 * start / len(rest), "level 6: texels outside the training sample")
+        block = rest[start : start + s.block_texels]
+        x = sample_grid(btf, p, None, block).reshape(len(block), -1)
+        idx, scale = nearest(x, decoded4, scale_free=True)
+        lit = x.max(axis=1) > 0
+        slots[block] = np.where(lit, idx + 1, 0)
+        scales[block] = np.where(lit, scale, 0.0)
+    del decoded4
+    t["pdf6_slices"] = slots.reshape(h, w)
+    t["pdf6_scale"] = scales.reshape(h, w)
+
+    step(0.95, "quantising scales")
+    if s.scale_bits:
+        for name_ in ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale"):
+            t[name_] = quantise(t[name_], s.scale_bits)
+    # The MLVQ codec has no slot for a tile size (its parameters are the original tool's).
+    out = MLVQBTF(p, t, source=f"{p.name} (encoded)")
+    counts = {k: int(v.shape[0]) for k, v in t.items() if not k.startswith("pdf6")}
+    step(1.0, "done")
+    return out, EncodeStats(time.perf_counter() - start, counts)
+
+
+def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel):
+    """One upper level: instances ``x`` (N, parts·D) already encoded part by part as
+    (idx_below, scale_below) (N, parts). Clusters the normalised data, re-encodes each centre
+    part by part on ``decoded_below`` (K_below, D), then assigns every instance to its best
+    decoded row with a least-squares scale. Returns the rows (indices int32, scales float32),
+    the decoded rows (K, parts·D) float32, and per instance (row, scale)."""
+    n = len(x)
+    mean = x.mean(axis=1, dtype=np.float64)
+    lit = np.flatnonzero(mean > 0)
+    if len(lit) == 0:
+        lit = np.arange(1)
+    pick = lit if len(lit) <= s.train else np.sort(rng.choice(lit, s.train, replace=False))
+    sample = x[pick] * (_NORM_MEAN / np.maximum(mean[pick], 1e-30)).astype(np.float32)[:, None]
+    if len(lit) <= k:
+        # Few instances: their own (already encoded) rows are the codebook, exactly.
+        # Identical instances (a constant material) share one row.
+        pairs = np.concatenate([idx_below[pick], scale_below[pick].astype(np.float32)], axis=1)
+        pairs = np.unique(pairs.astype(np.float64), axis=0)
+        rows_idx = pairs[:, :parts].astype(np.int32)
+        rows_scale = pairs[:, parts:].astype(np.float32)
+    else:
+        centres, _ = kmeans(sample, k, rng, s.iterations, s.train, cancel)
+        parts_c = centres.reshape(len(centres) * parts, -1)
+        ri, rs = nearest(parts_c, decoded_below, scale_free=True)
+        rows_idx = ri.reshape(len(centres), parts).astype(np.int32)
+        rows_scale = rs.reshape(len(centres), parts).astype(np.float32)
+    cancel()
+    decoded = decoded_below[rows_idx] * rows_scale[..., None]
+    decoded = decoded.reshape(len(rows_idx), -1).astype(np.float32)
+    idx, scale = nearest(x, decoded, scale_free=True)
+    del n
+    return rows_idx, rows_scale, decoded, idx, scale
+
+
+def _split_entries(entries, s: MLVQSettings, rng, cancel) -> dict[str, np.ndarray]:
+    """2D RGB entries (K, α, β, 3) on the 8-bit scale → the P1/colour/P2 tables."""
+    k, na, nb, _ = entries.shape
+    ycc = np.einsum("ij,kabj->kabi", _M_INV, entries.astype(np.float64)) + _OFFSET
+    lum = ycc[..., 0].reshape(k * na, nb)
+    peak = np.abs(lum).max(axis=1)
+    shapes = np.where(peak[:, None] > 0, lum / np.where(peak > 0, peak, 1.0)[:, None], 0.0)
+    pdf1, _ = kmeans(shapes.astype(np.float32), s.k1, rng, s.iterations, s.train, cancel)
+    slices, lum_scale = nearest(lum.astype(np.float32), pdf1, scale_free=True)
+
+    ab = ycc[..., 1:].reshape(-1, 2).astype(np.float32)
+    colours, _ = kmeans(ab, s.k_colours, rng, s.iterations, s.train, cancel)
+    runs = ycc[..., 1:].reshape(k * na, nb * 2).astype(np.float32)
+    run_centres, _ = kmeans(runs, s.k_index_ab, rng, s.iterations, s.train, cancel)
+    index_ab, _ = nearest(run_centres.reshape(-1, 2), colours)
+    index_ab = index_ab.reshape(len(run_centres), nb)
+    decoded_runs = colours[index_ab].reshape(len(index_ab), nb * 2)
+    run_of, _ = nearest(runs, decoded_runs)
+    colour_rows = run_of.reshape(k, na)
+    flat = decoded_runs[colour_rows].reshape(k, -1)
+    fn_centres, _ = kmeans(flat, s.k_colour_functions, rng, s.iterations, s.train, cancel)
+    fn_rows, _ = nearest(fn_centres.reshape(-1, nb * 2), decoded_runs)
+    fn_rows = fn_rows.reshape(len(fn_centres), na)
+    col_fn, _ = nearest(flat, decoded_runs[fn_rows].reshape(len(fn_rows), -1))
+    return {
+        "pdf1": pdf1.astype(np.float32),
+        "ab_colors": colours.astype(np.float32),
+        "index_ab": index_ab.astype(np.int32),
+        "pdf2_colours": fn_rows.astype(np.int32),
+        "pdf2_slices": slices.reshape(k, na).astype(np.int32),
+        "pdf2_scale": lum_scale.reshape(k, na).astype(np.float32),
+        "pdf2_indices": np.column_stack([np.arange(k), col_fn]).astype(np.int32),
+    }
+
+
+def quantise(a: np.ndarray, bits: int) -> np.ndarray:
+    """Uniform quantisation to 2^bits levels between the table's min and max (float32)."""
+    lo, hi = float(a.min()), float(a.max())
+    if hi <= lo:
+        return a.astype(np.float32)
+    step = (hi - lo) / (2**bits - 1)
+    return (np.round((a - lo) / step) * step + lo).astype(np.float32)
