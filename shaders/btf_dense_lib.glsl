@@ -1,24 +1,31 @@
 /* Dense (tabulated) BTFs: ring-bilinear interpolation in view and light with azimuth alignment,
  * light fade past the last ring — the same rules as btf_addon/core/grid.py and core/dense.py. */
 
-/* Up to four (sample index, weight) pairs for a direction on a ring grid. */
-void ring_weights(int theta_off, int offsets_off, int n_rings, float theta, float phi,
-                  out ivec4 idx, out vec4 w)
+/* The two theta rings around `theta` (clamped to the measured range) and the weight of r1: the
+ * ring step of the dense and svd codecs' interpolation (core/grid.py). */
+float ring_pair(int theta_off, int n_rings, float theta, out int r0, out int r1)
 {
-  float first = ftab(theta_off), last = ftab(theta_off + n_rings - 1);
-  theta = clamp(theta, first, last);
-  int r0 = 0;
+  theta = clamp(theta, ftab(theta_off), ftab(theta_off + n_rings - 1));
+  r0 = 0;
   for (int r = 1; r < n_rings - 1; r++) {
     if (ftab(theta_off + r) <= theta) {
       r0 = r;
     }
   }
-  float wt = 0.0;
-  int r1 = r0;
-  if (n_rings > 1) {
-    r1 = r0 + 1;
-    wt = (theta - ftab(theta_off + r0)) / (ftab(theta_off + r1) - ftab(theta_off + r0));
+  r1 = r0;
+  if (n_rings < 2) {
+    return 0.0;
   }
+  r1 = r0 + 1;
+  return (theta - ftab(theta_off + r0)) / (ftab(theta_off + r1) - ftab(theta_off + r0));
+}
+
+/* Up to four (sample index, weight) pairs for a direction on a ring grid. */
+void ring_weights(int theta_off, int offsets_off, int n_rings, float theta, float phi,
+                  out ivec4 idx, out vec4 w)
+{
+  int r0, r1;
+  float wt = ring_pair(theta_off, n_rings, theta, r0, r1);
   for (int k = 0; k < 2; k++) {
     int ring = (k == 0) ? r0 : r1;
     float ring_w = (k == 0) ? 1.0 - wt : wt;

@@ -36,20 +36,8 @@ float svd_channel(int channels, int c, int pair, int texel)
 void svd_ring_weights(int theta_off, int offsets_off, int phi_off, int n_rings, float theta,
                       float phi, out ivec4 idx, out vec4 w)
 {
-  float first = ftab(theta_off), last = ftab(theta_off + n_rings - 1);
-  theta = clamp(theta, first, last);
-  int r0 = 0;
-  for (int r = 1; r < n_rings - 1; r++) {
-    if (ftab(theta_off + r) <= theta) {
-      r0 = r;
-    }
-  }
-  float wt = 0.0;
-  int r1 = r0;
-  if (n_rings > 1) {
-    r1 = r0 + 1;
-    wt = (theta - ftab(theta_off + r0)) / (ftab(theta_off + r1) - ftab(theta_off + r0));
-  }
+  int r0, r1;
+  float wt = ring_pair(theta_off, n_rings, theta, r0, r1);
   float pos = phi - 360.0 * floor(phi / 360.0);
   for (int k = 0; k < 2; k++) {
     int ring = (k == 0) ? r0 : r1;

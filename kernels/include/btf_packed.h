@@ -200,23 +200,30 @@ inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_
 
 /* --- dense -------------------------------------------------------------------------------- */
 
+/* The two θ rings around ``theta`` (clamped to the measured range) → r0, r1 and the weight of
+ * r1: the ring step of the dense and svd codecs' interpolation (core/grid.py). */
+inline float ring_pair(Stream F, int theta_off, int n_rings, float theta, int *r0, int *r1)
+{
+  theta = clamp(theta, FTAB(theta_off), FTAB(theta_off + n_rings - 1));
+  *r0 = 0;
+  for (int r = 1; r < n_rings - 1; r++) {
+    if (FTAB(theta_off + r) <= theta) {
+      *r0 = r;
+    }
+  }
+  *r1 = *r0;
+  if (n_rings < 2) {
+    return 0.0f;
+  }
+  *r1 = *r0 + 1;
+  return (theta - FTAB(theta_off + *r0)) / (FTAB(theta_off + *r1) - FTAB(theta_off + *r0));
+}
+
 inline void ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int n_rings,
                          float theta, float phi, int idx[4], float w[4])
 {
-  float first = FTAB(theta_off), last = FTAB(theta_off + n_rings - 1);
-  theta = clamp(theta, first, last);
-  int r0 = 0;
-  for (int r = 1; r < n_rings - 1; r++) {
-    if (FTAB(theta_off + r) <= theta) {
-      r0 = r;
-    }
-  }
-  float wt = 0.0f;
-  int r1 = r0;
-  if (n_rings > 1) {
-    r1 = r0 + 1;
-    wt = (theta - FTAB(theta_off + r0)) / (FTAB(theta_off + r1) - FTAB(theta_off + r0));
-  }
+  int r0, r1;
+  float wt = ring_pair(F, theta_off, n_rings, theta, &r0, &r1);
   for (int k = 0; k < 2; k++) {
     int ring = k ? r1 : r0;
     float ring_w = k ? wt : 1.0f - wt;

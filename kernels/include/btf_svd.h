@@ -41,20 +41,8 @@ inline float svd_channel(Stream I, Stream F, int channels, int c, int pair, int 
 inline void svd_ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int phi_off,
                              int n_rings, float theta, float phi, int idx[4], float w[4])
 {
-  float first = FTAB(theta_off), last = FTAB(theta_off + n_rings - 1);
-  theta = clamp(theta, first, last);
-  int r0 = 0;
-  for (int r = 1; r < n_rings - 1; r++) {
-    if (FTAB(theta_off + r) <= theta) {
-      r0 = r;
-    }
-  }
-  float wt = 0.0f;
-  int r1 = r0;
-  if (n_rings > 1) {
-    r1 = r0 + 1;
-    wt = (theta - FTAB(theta_off + r0)) / (FTAB(theta_off + r1) - FTAB(theta_off + r0));
-  }
+  int r0, r1;
+  float wt = ring_pair(F, theta_off, n_rings, theta, &r0, &r1);
   float pos = btf_mod(phi, 360.0f);
   for (int k = 0; k < 2; k++) {
     int ring = k ? r1 : r0;
