@@ -221,6 +221,19 @@ def _require_saved(operator) -> bool:
     return True
 
 
+def _remap_sources(operator, made: str, remap) -> set[str]:
+    """Every BTF source through ``remap(source, blend path)``; reports how many changed."""
+    if not _require_saved(operator):
+        return {"CANCELLED"}
+    changed = 0
+    for material in btf_materials():
+        new = remap(material.btf.source, bpy.data.filepath)
+        if new != material.btf.source:
+            material.btf.source, changed = new, changed + 1
+    operator.report({"INFO"}, f"{changed} BTF source(s) made {made}")
+    return {"FINISHED"}
+
+
 class BTF_OT_make_paths_relative(Operator):
     """Make every BTF source relative to the .blend (as Make Paths Relative does for images)"""
 
@@ -229,15 +242,9 @@ class BTF_OT_make_paths_relative(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        if not _require_saved(self):
-            return {"CANCELLED"}
-        changed = 0
-        for material in btf_materials():
-            new = relative(absolute(material.btf.source, bpy.data.filepath), bpy.data.filepath)
-            if new != material.btf.source:
-                material.btf.source, changed = new, changed + 1
-        self.report({"INFO"}, f"{changed} BTF source(s) made relative")
-        return {"FINISHED"}
+        return _remap_sources(
+            self, "relative", lambda src, blend: relative(absolute(src, blend), blend)
+        )
 
 
 class BTF_OT_make_paths_absolute(Operator):
@@ -248,15 +255,7 @@ class BTF_OT_make_paths_absolute(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        if not _require_saved(self):
-            return {"CANCELLED"}
-        changed = 0
-        for material in btf_materials():
-            new = absolute(material.btf.source, bpy.data.filepath)
-            if new != material.btf.source:
-                material.btf.source, changed = new, changed + 1
-        self.report({"INFO"}, f"{changed} BTF source(s) made absolute")
-        return {"FINISHED"}
+        return _remap_sources(self, "absolute", absolute)
 
 
 class BTF_OT_report_missing(Operator):
