@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .btfbase_files import MaterialInfo
 from .errors import BTFFormatError, UnsupportedBTFError
 from .mlvq import MLVQBTF, MLVQParams
 
@@ -67,25 +68,12 @@ MAX_VALUES = 1 << 28
 
 
 @dataclass(frozen=True)
-class BinaryHeader:
-    """The text header: parameterisation, codebook counts and the material line."""
+class BinaryHeader(MaterialInfo):
+    """The text header: what ``all_materialInfo.txt`` says (the parameterisation and the
+    material line), plus the codebook counts and where the binary tables start."""
 
-    name: str
-    n_colour: int
-    n_views: int
-    n_lights: int
-    use_cos_beta: bool
-    n_beta: int
-    n_alpha: int
-    n_theta: int
-    n_phi: int
-    counts: tuple[int, ...]
-    rows_offset: int
-    cols_offset: int
-    rows: int
-    cols: int
-    hdr_value: float
-    data_offset: int
+    counts: tuple[int, ...] = ()
+    data_offset: int = 0
 
 
 def is_binary_btf(path: Path) -> bool:
@@ -160,6 +148,7 @@ def read_header(data: bytes, path: Path) -> BinaryHeader:
         n_alpha=n_alpha,
         n_theta=n_theta,
         n_phi=n_phi,
+        code_btf=False,  # the binary form has no such flag
         counts=tuple(counts),
         rows_offset=ro,
         cols_offset=co,
