@@ -28,6 +28,7 @@ from ..render.accuracy_report import error_plot, to_json
 from ..render.settings import RenderSettings
 from .accuracy_run import prepare, set_up
 from .addon import ENGINE_ID
+from .background_job import BackgroundJobModal
 from .preferences import preferred_device
 
 log = logging.getLogger(__name__)
@@ -189,7 +190,7 @@ def _redraw_properties(context) -> None:
                 area.tag_redraw()
 
 
-class BTF_OT_estimate_quality(Operator):
+class BTF_OT_estimate_quality(BackgroundJobModal, Operator):
     """Measure error against render time for this scene's quality settings (virtual lights,
     samples, bounces) at a reduced size, and recommend settings for a time budget or a
     target error"""
@@ -197,9 +198,7 @@ class BTF_OT_estimate_quality(Operator):
     bl_idname = "btf.estimate_quality"
     bl_label = "Estimate Quality vs Time"
     bl_options = {"REGISTER"}  # stores a report, changes no render setting: no undo step
-
-    _timer = None
-    _job: Job | None = None
+    status_label = "Quality vs Time"
 
     @classmethod
     def poll(cls, context) -> bool:
@@ -222,34 +221,10 @@ class BTF_OT_estimate_quality(Operator):
         job.thread.join()
         return finish_job(self, context, job)
 
-    def invoke(self, context, _event) -> set[str]:
-        if context.window is None:
-            return self.execute(context)
-        job = self._start(context)
-        if job is None:
-            return {"CANCELLED"}
-        self._job = job
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.25, window=context.window)
-        wm.modal_handler_add(self)
-        wm.progress_begin(0, 100)
-        return {"RUNNING_MODAL"}
+    def _tick(self, context) -> None:
+        _redraw_properties(context)  # the panel's progress and, at the end, its plot
 
-    def modal(self, context, event) -> set[str]:
-        job = self._job
-        if event.type == "ESC":
-            job.cancel.set()
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        wm = context.window_manager
-        wm.progress_update(int(job.fraction * 100))
-        context.workspace.status_text_set(f"Quality vs Time: {job.fraction:.0%} {job.text}")
-        _redraw_properties(context)
-        if not job.done.is_set():
-            return {"PASS_THROUGH"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
+    def _end(self, context, job: Job) -> set[str]:
         result = finish_job(self, context, job)
         _redraw_properties(context)
         return result

@@ -22,6 +22,7 @@ from ..core.container import SUFFIX, write_container
 from ..core.encoders import metrics
 from ..core.encoders.mlvq import MLVQSettings, encode_mlvq
 from ..core.errors import BTFError
+from .background_job import BackgroundJobModal
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +69,7 @@ class Job:
             self.done.set()
 
 
-class BTF_OT_compress(Operator):
+class BTF_OT_compress(BackgroundJobModal, Operator):
     """Compress a BTF (BTFbase folder or .btfm, any codec) to MLVQ in a .btfm file"""
 
     bl_idname = "btf.compress"
@@ -83,11 +84,9 @@ class BTF_OT_compress(Operator):
     k4: IntProperty(name="P4 Rows", default=MLVQSettings.k4, min=1)
     scale_bits: IntProperty(name="Scale Bits", default=MLVQSettings.scale_bits, min=0, max=16)
     seed: IntProperty(name="Seed", default=0, min=0)
+    status_label = "Compress BTF"
 
-    _timer = None
-    _job: Job | None = None
-
-    def _start(self) -> Job | None:
+    def _start(self, _context) -> Job | None:
         try:
             if not self.filepath:
                 raise BTFError("choose the BTF to compress")
@@ -108,7 +107,7 @@ class BTF_OT_compress(Operator):
         job.thread.start()
         return job
 
-    def _finish(self, job: Job) -> set[str]:
+    def _end(self, _context, job: Job) -> set[str]:
         if job.error is not None:
             self.report({"ERROR"}, f"Compress failed: {job.error}")
             return {"CANCELLED"}
@@ -119,40 +118,11 @@ class BTF_OT_compress(Operator):
         return {"FINISHED"}
 
     def execute(self, context) -> set[str]:
-        job = self._start()
+        job = self._start(context)
         if job is None:
             return {"CANCELLED"}
         job.thread.join()
-        return self._finish(job)
-
-    def invoke(self, context, _event) -> set[str]:
-        if context.window is None:
-            return self.execute(context)
-        job = self._start()
-        if job is None:
-            return {"CANCELLED"}
-        self._job = job
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.25, window=context.window)
-        wm.modal_handler_add(self)
-        wm.progress_begin(0, 100)
-        return {"RUNNING_MODAL"}
-
-    def modal(self, context, event) -> set[str]:
-        job = self._job
-        if event.type == "ESC":
-            job.cancel.set()
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        wm = context.window_manager
-        wm.progress_update(int(job.fraction * 100))
-        context.workspace.status_text_set(f"Compress BTF: {job.fraction:.0%} {job.text}")
-        if not job.done.is_set():
-            return {"PASS_THROUGH"}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
-        return self._finish(job)
+        return self._end(context, job)
 
 
 CLASSES = (BTF_OT_compress,)

@@ -1,0 +1,53 @@
+"""The modal half of an operator whose work runs on a worker thread: a progress bar and status
+text refreshed by a timer, Esc to cancel, the result handled on the main thread. Used by
+Estimate Quality vs Time (accuracy_operator.py) and Compress BTF (compress_operator.py).
+
+A job is anything with ``fraction`` (0–1), ``text``, and the ``threading.Event``s ``cancel``
+and ``done``. The operator defines ``_start(context) -> job | None`` (None: it reported why),
+``_end(context, job) -> {'FINISHED'} | {'CANCELLED'}``, ``status_label`` and ``execute`` (from
+a script, or without a window as in background Blender: the whole job before returning)."""
+
+from __future__ import annotations
+
+TICK_SECONDS = 0.25  # how often progress is shown; also how late a finished job is noticed
+
+
+class BackgroundJobModal:
+    """Mixin placed before ``bpy.types.Operator`` in the bases."""
+
+    status_label = ""
+    _timer = None
+    _job = None
+
+    def _tick(self, context) -> None:
+        """Per timer tick, after the progress is shown (a panel's redraw)."""
+
+    def invoke(self, context, _event) -> set[str]:
+        if context.window is None:
+            return self.execute(context)
+        job = self._start(context)
+        if job is None:
+            return {"CANCELLED"}
+        self._job = job
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(TICK_SECONDS, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0, 100)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event) -> set[str]:
+        job = self._job
+        if event.type == "ESC":
+            job.cancel.set()
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        wm.progress_update(int(job.fraction * 100))
+        context.workspace.status_text_set(f"{self.status_label}: {job.fraction:.0%} {job.text}")
+        self._tick(context)
+        if not job.done.is_set():
+            return {"PASS_THROUGH"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        return self._end(context, job)
