@@ -36,6 +36,7 @@ def render_glsl(
         state = view.state
         engine.update_stats("", f"BTF | {len(exported.meshes)} meshes, {state.total} lights")
         view.jitter = settings.film()  # each pass at the film filter's next subpixel offset
+        view.jitter_world = not transparent  # a transparent film keeps the World out of the sum
         drawer.restart(view, cam.clip_from_world(w / h), cam.shader_vector())
         while drawer.add_batch(view):
             engine.update_progress(state.done / state.total)

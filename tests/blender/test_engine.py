@@ -193,7 +193,13 @@ def test_engine_is_registered_with_its_panels(bpy_module, installed):
         for p in bpy_module.types.Panel.__subclasses__()
         if "BLENDER_RENDER" in getattr(p, "COMPAT_ENGINES", ())
     ]
-    assert shared and all("BTF_RENDER" in p.COMPAT_ENGINES for p in shared)
+    engine = extension_submodule("btf_addon.blender.engine")
+    # Every panel Eevee/Workbench share shows for BTF too, except those showing what this
+    # engine ignores or has its own panel for (engine.EXCLUDED_PANELS; test_panels.py).
+    excluded = {id(p.COMPAT_ENGINES) for p in shared if p.__name__ in engine.EXCLUDED_PANELS}
+    assert excluded and len(shared) > len(excluded)
+    for p in shared:
+        assert ("BTF_RENDER" in p.COMPAT_ENGINES) == (id(p.COMPAT_ENGINES) not in excluded), p
     assert hasattr(bpy_module.types.Scene, "btf_render")
 
 
