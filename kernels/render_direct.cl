@@ -14,7 +14,7 @@
  * the pixel filter's footprint: the R2 low-discrepancy points given (render/pixel_filter.py)
  * mapped through the filter's inverse-CDF table (include/btf_filter.h). With split_lights the
  * N lights are split into aa_samples consecutive blocks, one per subpixel, at the same offsets
- * in every pixel: exactly the viewport's jittered passes. Else every subpixel sees all N, the
+ * in every pixel: the viewport's jittered passes when its batches hold as many lights. Else every subpixel sees all N, the
  * points rotated per pixel (Cranley-Patterson: one pattern everywhere would leave a structured
  * error instead of a falling one). The data passes stay at the pixel centre (a depth averaged
  * over an edge is no depth at all). */

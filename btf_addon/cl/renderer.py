@@ -283,8 +283,9 @@ class CLRenderer:
         environment sample and one from the BTF's sampling, with MIS (power heuristic); up to
         ``max_bounces`` indirect reflections (none where the scene analysis finds no surface
         that can see another), Russian roulette after the second. Samples are rendered in
-        progressive passes (``preview`` sees each); the result does not depend on how they
-        were split (each sample's random points depend only on its index). With a film
+        progressive passes (``preview`` sees each); how they are split changes no sample (each
+        sample's random points depend only on its index), only the rounding of the sums:
+        ``fixed_launch_split`` makes frames bit-identical between runs. With a film
         filter each sample's camera ray goes through its own point of the filter's footprint,
         drawn with the filter's distribution (the mean converges to the filtered image)."""
         w, h = self.width, self.height

@@ -113,8 +113,7 @@ def _float_slots() -> dict[str, tuple[int, int]]:
 
 #: The per-material parameter block, one per (mesh, material) draw: how a surface point finds
 #: its texture coordinates (core/mapping.py computes every value; kernels/include/btf_surface.h
-#: and shaders/btf_mapping_lib.glsl read them as ``M_<NAME>``). Replaces the ad-hoc 8-float
-#: ``material_params`` and the ``uv_transform`` uniform. Values, in order:
+#: and shaders/btf_mapping_lib.glsl read them as ``M_<NAME>``). Values, in order:
 #: material: index of the material's packed tables; mapping: MAPPING_UV | MAPPING_BOX;
 #: texel_filter: FILTER_NEAREST | FILTER_LINEAR; exposure: the multiplier 2^stops;
 #: uv_matrix: 2×2 row-major A and uv_offset c: texture coordinates = A·s + c, where s is the

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.envmap import Environment
-from ..core.mapping import Placement, uv_matrix, uv_units_per_uv
+from ..core.mapping import Placement, uv_units_per_uv
 from ..core.model import BTF
 from ..core.packed import MATERIAL_BLOCK_FLOATS
 from .lights import Light
@@ -42,11 +42,6 @@ class Material:
     tile_size_mm: tuple[float, float] | None = None
     box_space: str = "OBJECT"
     box_blend: float = 0.2
-
-    def uv_transform(self) -> np.ndarray:
-        """(2, 2) matrix taking mesh UVs to BTF texture coordinates (rotate, then scale),
-        without real-world sizing (that needs a mesh: ``block``)."""
-        return uv_matrix(self.uv_scale, self.uv_rotation_rad)
 
     @property
     def physical_size_mm(self) -> tuple[float, float] | None:
