@@ -34,6 +34,7 @@ def test_defines_follow_what_the_scene_has():
         "HAS_ENVIRONMENT": 0,
         "HAS_MLVQ": 0,
         "HAS_DENSE": 0,
+        "HAS_SVD": 0,
         "HAS_ANALYTIC": 1,
     }
     spot = PointLight(np.zeros(3), np.ones(3), axis=np.array([0, 0, -1.0]), cos_half_angle=0.5)
@@ -49,6 +50,6 @@ def test_unknown_codec_and_hand_made_features_compile_everything():
     assert all(v == 1 for v in full.values())
     assert ALL_CODECS <= SceneFeatures(True, False).codecs
     odd = SceneFeatures(True, False, codecs=frozenset({"some_new_codec"})).defines()
-    assert odd["HAS_MLVQ"] == odd["HAS_DENSE"] == odd["HAS_ANALYTIC"] == 1
+    assert odd["HAS_MLVQ"] == odd["HAS_DENSE"] == odd["HAS_SVD"] == odd["HAS_ANALYTIC"] == 1
     # 8 yes/no defines: at most 2^8 variants, the bound stated in analysis.py.
-    assert len(full) == 8
+    assert len(full) == 9
