@@ -15,6 +15,7 @@ import argparse
 import sys
 import time
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 from ..core import memory
@@ -371,7 +372,9 @@ def _render_stereo(bpy, scene, args) -> int:
     for message in capture.messages:
         print(f"warning: {message}", file=sys.stderr)
     print(
-        f"captured {describe_capture(capture)} with {describe(settings)} in {seconds:.2f} s "
+        # A capture draws the virtual lights whatever the final mode (gl/stereo_capture.py).
+        f"captured {describe_capture(capture)} with "
+        f"{describe(replace(settings, final_mode=FinalMode.VIRTUAL))} in {seconds:.2f} s "
         f"-> {', '.join(str(p) for p in written)}"
     )
     return 0

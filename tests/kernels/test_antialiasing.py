@@ -62,6 +62,9 @@ def test_same_seed_same_image_other_seed_other_noise(cl_context):
     from btf_addon.cl.renderer import CLRenderer
 
     renderer = CLRenderer(horizon_scene(), 24, 16, cl_context)
+    # Bit-identical needs the fixed launch split: a split chosen from measured times changes
+    # the float rounding of the per-pixel sums (render/launch.py).
+    renderer.fixed_launch_split = True
     first = renderer.render_sampled(4, seed=7)
     np.testing.assert_array_equal(renderer.render_sampled(4, seed=7), first)
     assert not np.array_equal(renderer.render_sampled(4, seed=8), first)
