@@ -54,11 +54,11 @@ class RingGrid:
     def directions(self) -> np.ndarray:
         return directions_from_angles_deg(*self.angles_deg())
 
-    def weights(self, theta_deg: np.ndarray, phi_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Interpolation for M directions: indices (M, 4) int64 and weights (M, 4) float64."""
+    def ring_pair(self, theta_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The θ rings bracketing each of M angles (clamped to the measured range): r0, r1
+        (M,) int64 and the weight of r1 (M,) float64 — the ring step of every ring-grid
+        interpolation (here, and svd.ring_weights' uneven azimuths)."""
         rings = np.asarray(self.theta_deg)
-        counts = np.asarray(self.counts)
-        offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
         theta = np.clip(theta_deg, rings[0], rings[-1])
         if len(rings) == 1:
             r0 = np.zeros(len(theta), dtype=np.int64)
@@ -66,9 +66,15 @@ class RingGrid:
         else:
             r0 = np.clip(np.searchsorted(rings, theta, side="right") - 1, 0, len(rings) - 2)
             wt = (theta - rings[r0]) / (rings[r0 + 1] - rings[r0])
-        r1 = np.minimum(r0 + 1, len(rings) - 1)
-        idx = np.empty((len(theta), 4), dtype=np.int64)
-        w = np.empty((len(theta), 4))
+        return r0, np.minimum(r0 + 1, len(rings) - 1), wt
+
+    def weights(self, theta_deg: np.ndarray, phi_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interpolation for M directions: indices (M, 4) int64 and weights (M, 4) float64."""
+        counts = np.asarray(self.counts)
+        offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        r0, r1, wt = self.ring_pair(theta_deg)
+        idx = np.empty((len(wt), 4), dtype=np.int64)
+        w = np.empty((len(wt), 4))
         for slot, ring, ring_w in ((0, r0, 1.0 - wt), (2, r1, wt)):
             n = counts[ring]
             pos = np.mod(phi_deg, 360.0) / (360.0 / n)

@@ -310,23 +310,15 @@ def ring_weights(
     ring order, increasing within a ring): linear in θ between the bracketing rings, within a
     ring linear in φ between the neighbouring samples (wrapping). Equals ``grid.weights`` when
     the azimuths are k·360°/n. Returns indices (M, 4) int64 and weights (M, 4) float64."""
-    rings = np.asarray(grid.theta_deg)
     counts = np.asarray(grid.counts)
     offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    theta = np.clip(theta_deg, rings[0], rings[-1])
-    if len(rings) == 1:
-        r0 = np.zeros(len(theta), dtype=np.int64)
-        wt = np.zeros(len(theta))
-    else:
-        r0 = np.clip(np.searchsorted(rings, theta, side="right") - 1, 0, len(rings) - 2)
-        wt = (theta - rings[r0]) / (rings[r0 + 1] - rings[r0])
-    r1 = np.minimum(r0 + 1, len(rings) - 1)
+    r0, r1, wt = grid.ring_pair(theta_deg)
     pos = np.mod(phi_deg, 360.0)
-    idx = np.empty((len(theta), 4), dtype=np.int64)
-    w = np.empty((len(theta), 4))
+    idx = np.empty((len(wt), 4), dtype=np.int64)
+    w = np.empty((len(wt), 4))
     for slot, ring, ring_w in ((0, r0, 1.0 - wt), (2, r1, wt)):
-        k0 = np.zeros(len(theta), dtype=np.int64)
-        wp = np.zeros(len(theta))
+        k0 = np.zeros(len(wt), dtype=np.int64)
+        wp = np.zeros(len(wt))
         for r in np.unique(ring):
             m = ring == r
             n = counts[r]
