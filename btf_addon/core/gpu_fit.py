@@ -11,9 +11,11 @@ message saying so, instead of a failed draw.
 
 from __future__ import annotations
 
+import numpy as np
+
 from .dense import DenseBTF
 from .errors import UnsupportedBTFError
-from .model import BTF, DelegatingBTF
+from .model import BTF, DelegatingBTF, box_reduce
 from .packed import MAX_EXACT_INT, TABLE_WIDTH
 from .svd import SVDBTF
 from .svd_build import reduce_resolution
@@ -34,12 +36,9 @@ def packed_floats(btf: BTF) -> int | None:
 
 
 def _reduce_dense(btf: DenseBTF, factor: int) -> DenseBTF:
-    nv, nl, h, w, _ = btf.data.shape
-    hh, ww = h // factor, w // factor
-    if hh < 1 or ww < 1:
-        raise UnsupportedBTFError(f"{btf.meta.name}: cannot reduce {w}×{h} by {factor}")
-    data = btf.data[:, :, : hh * factor, : ww * factor]
-    data = data.reshape(nv, nl, hh, factor, ww, factor, 3).mean(axis=(3, 5))
+    # Texel axes first for box_reduce, then back: (nv, nl, h, w, 3).
+    data = box_reduce(np.moveaxis(btf.data, (2, 3), (0, 1)), factor, btf.meta.name)
+    data = np.moveaxis(data, (0, 1), (2, 3))
     return DenseBTF(
         data, btf.view_grid, btf.light_grid, f"{btf.meta.name} (1/{factor})", btf.meta.tile_size_mm
     )

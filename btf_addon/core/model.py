@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .angles import angles_deg_from_directions, directions_from_angles_deg, normalize_directions
+from .errors import UnsupportedBTFError
 
 #: Rows evaluated per chunk: bounds temporary memory for 10⁶-query calls.
 CHUNK = 1 << 17
@@ -205,3 +206,15 @@ def wrap_texel(uv: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.
     x = np.floor(np.mod(uv[:, 0], 1.0) * width).astype(np.int64) % width
     y = np.floor(np.mod(uv[:, 1], 1.0) * height).astype(np.int64) % height
     return x, y
+
+
+def box_reduce(texels: np.ndarray, factor: int, name: str) -> np.ndarray:
+    """Texels averaged over factor × factor blocks: (H, W, …) → (H // factor, W // factor, …),
+    a last partial block dropped (the GPU fallback of a BTF too large for its textures)."""
+    h, w = texels.shape[0] // factor, texels.shape[1] // factor
+    if h < 1 or w < 1:
+        raise UnsupportedBTFError(
+            f"{name}: cannot reduce {texels.shape[1]}×{texels.shape[0]} by {factor}"
+        )
+    blocks = texels[: h * factor, : w * factor]
+    return blocks.reshape(h, factor, w, factor, *texels.shape[2:]).mean(axis=(1, 3))

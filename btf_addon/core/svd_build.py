@@ -9,6 +9,7 @@ import numpy as np
 
 from .errors import UnsupportedBTFError
 from .grid import UBO2003, RingGrid
+from .model import box_reduce
 from .svd import _YUV_TO_RGB, SVDBTF, SVDParams
 
 _RGB_TO_YUV = np.linalg.inv(_YUV_TO_RGB)
@@ -65,11 +66,7 @@ def reduce_resolution(btf: SVDBTF, factor: int) -> SVDBTF:
     the box-filtered BTF for the linear colour models): the GPU fallback when a BTF is too large.
     Sizes not divisible by ``factor`` drop their last partial block."""
     p = btf.p
-    h, w = p.height // factor, p.width // factor
-    if h < 1 or w < 1:
-        raise UnsupportedBTFError(f"{p.name}: cannot reduce {p.width}×{p.height} by {factor}")
-    sv = []
-    for a in btf.sv:
-        grid = a.reshape(p.height, p.width, -1)[: h * factor, : w * factor]
-        sv.append(grid.reshape(h, factor, w, factor, -1).mean(axis=(1, 3)).reshape(h * w, -1))
+    sv = [box_reduce(a.reshape(p.height, p.width, -1), factor, p.name) for a in btf.sv]
+    h, w = sv[0].shape[:2]
+    sv = [a.reshape(h * w, -1) for a in sv]
     return SVDBTF(replace(p, width=w, height=h, name=f"{p.name} (1/{factor})"), btf.u, sv)
