@@ -140,7 +140,12 @@ def r2_points(count: int) -> np.ndarray:
     """(count, 2) float64: the R2 low-discrepancy sequence started at (½, ½). Every prefix is
     evenly spread (not only powers of two, which a progressive viewport needs: its pass count is
     anything), and point 0, once mapped through ``PixelFilter.sample``, is the pixel centre."""
-    i = np.arange(count, dtype=np.float64)[:, None]
+    return r2_at(np.arange(count))
+
+
+def r2_at(indices: np.ndarray) -> np.ndarray:
+    """(M, 2) float64: points ``indices`` of ``r2_points``' sequence."""
+    i = np.asarray(indices, dtype=np.float64).reshape(-1, 1)
     return np.mod(0.5 + i * np.array(R2_STEP), 1.0)
 
 
@@ -158,6 +163,5 @@ def subpixel_offset(pixel_filter: PixelFilter | None, index: int) -> tuple[float
     """Offset ``index`` of ``subpixel_offsets`` alone (the viewport's jitter of one pass)."""
     if pixel_filter is None:
         return (0.0, 0.0)
-    u = np.mod(0.5 + index * np.array(R2_STEP), 1.0)
-    dx, dy = pixel_filter.sample(u)
+    dx, dy = pixel_filter.sample(r2_at([index]))[0]
     return (float(dx), float(dy))
