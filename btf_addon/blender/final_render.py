@@ -187,10 +187,8 @@ def render(engine, depsgraph) -> None:
         "Normal": passes.normal,
         "UV": np.concatenate([passes.uv, np.ones_like(passes.depth)[..., None]], axis=-1),
     }
-    for name, image in top_first.items():
-        render_pass = layer.passes.find_by_name(name, "")
-        if render_pass is not None:
-            set_pass(render_pass, region, image[::-1])  # Blender's buffers: bottom row first
+    # Blender's buffers: bottom row first.
+    set_passes(layer, region, {name: image[::-1] for name, image in top_first.items()})
     engine.end_result(result)
 
 
@@ -228,11 +226,17 @@ def write_result(engine, view_layer, region: Region, bottom_first: dict) -> None
     result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name)
     layer = result.layers[0]
     check_result_size(layer, region)
+    set_passes(layer, region, bottom_first)
+    engine.end_result(result)
+
+
+def set_passes(layer, region: Region, bottom_first: dict) -> None:
+    """Each whole-frame image (row 0 at the bottom) into the layer's pass of its name, where
+    the layer has one (passes the view layer turned off are skipped)."""
     for name, image in bottom_first.items():
         render_pass = layer.passes.find_by_name(name, "")
         if render_pass is not None:
             set_pass(render_pass, region, image)
-    engine.end_result(result)
 
 
 #: Lines of the compiler's log quoted in the error: the first error and its context (the
