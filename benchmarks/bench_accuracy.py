@@ -16,9 +16,11 @@ are never copied by hand.
 
 from __future__ import annotations
 
+import atexit
 import json
 import math
 import re
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -132,6 +134,7 @@ def main() -> str:
     btf_addon.register()
     try:
         tmp = Path(tempfile.mkdtemp(prefix="btf-bench-accuracy-"))
+        atexit.register(shutil.rmtree, tmp, ignore_errors=True)
         scene = build_scene(bpy, tmp)
         f12(bpy, scene, _settings(scene))  # compile (or load) the kernels once
         t0 = time.perf_counter()

@@ -11,8 +11,10 @@ Usage: ``python benchmarks/bench_specialise.py``.
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import os
+import shutil
 import tempfile
 import time
 
@@ -49,7 +51,9 @@ def main() -> str:
     from btf_addon.cl.renderer import CLRenderer
     from btf_addon.scene.analysis import SceneFeatures, analyse
 
-    programs.set_cache_dir(tempfile.mkdtemp(prefix="bench-specialise-"))
+    cache = tempfile.mkdtemp(prefix="bench-specialise-")
+    atexit.register(shutil.rmtree, cache, ignore_errors=True)
+    programs.set_cache_dir(cache)
     ctx = create_context()
     s = scene()
     full = SceneFeatures(shadows=True, environment_texture=False)

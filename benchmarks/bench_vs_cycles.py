@@ -12,8 +12,10 @@ between the measured points.
 
 from __future__ import annotations
 
+import atexit
 import itertools
 import math
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -46,6 +48,7 @@ def main() -> str:
     btf_addon.register()
     try:
         tmp = Path(tempfile.mkdtemp(prefix="btf-bench-cycles-"))
+        atexit.register(shutil.rmtree, tmp, ignore_errors=True)
         bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
         scene = build(bpy, tmp, "diffuse", ground=True)
         bounces = 2

@@ -8,8 +8,10 @@ The session builds the zip with Blender's own builder, installs it into an isola
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -22,6 +24,10 @@ from helpers import ROOT
 # Before any `import bpy` in this process: Blender reads it once, at start-up.
 USER_RESOURCES = tempfile.mkdtemp(prefix="btf-blender-user-")
 os.environ["BLENDER_USER_RESOURCES"] = USER_RESOURCES
+# The installed extension (bundled PoCL, pyopencl, OpenEXR...) is about 570 MB: a session that
+# left it behind filled CI's disk after a few runs. Removed when the interpreter exits, after
+# Blender is done with it.
+atexit.register(shutil.rmtree, USER_RESOURCES, ignore_errors=True)
 
 
 def pytest_collection_modifyitems(items):
