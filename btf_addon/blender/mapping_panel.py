@@ -9,10 +9,13 @@ from bpy.types import Panel
 
 from ..core.errors import BTFError
 from ..core.mapping import Placement, uv_units_per_uv
-from .export.materials import load_cached, placement
+from .export.materials import BTFFileKey, file_key, load_cached, placement
 
 #: UV density per mesh datablock, computed once: (pointer, loops, uv map, scale) → units/UV.
 _density_cache: dict[tuple, float | None] = {}
+#: Sources that failed to load, with the reason: the panel redraws on every mouse move and must
+#: not retry (and re-parse) a broken file each time. A rewritten file has a new key.
+_unreadable: dict[BTFFileKey, str] = {}
 
 
 def mesh_units_per_uv(obj, uv_name: str = "") -> float | None:
@@ -52,9 +55,18 @@ def stated_size(settings) -> tuple[tuple[float, float] | None, str]:
     if not settings.source:
         return None, "no BTF source"
     try:
+        key = file_key(settings.source)
+    except OSError as exc:
+        return None, f"source not readable ({exc})"
+    if key in _unreadable:
+        return None, _unreadable[key]
+    try:
         meta = load_cached(settings.source).meta
     except (BTFError, OSError) as exc:
-        return None, f"source not readable ({exc})"
+        if len(_unreadable) > 64:
+            _unreadable.clear()
+        _unreadable[key] = f"source not readable ({exc})"
+        return None, _unreadable[key]
     return meta.tile_size_mm, meta.tile_size_source
 
 

@@ -128,3 +128,32 @@ def test_mapping_panel_states_the_tile_on_the_active_object(bpy_module, fresh_sc
     layout.labels.clear()
     panel.draw(stub, context)
     assert "1 tile ≈ 8 mm on Cube" in layout.labels
+
+
+def test_mapping_panel_does_not_reload_a_broken_source_on_every_redraw(
+    bpy_module, fresh_scene, tmp_path, monkeypatch
+):
+    """The panel redraws on every mouse move: a source that fails to load is tried once per
+    version of the file, and a rewritten file is tried again."""
+    import os
+
+    bpy = bpy_module
+    broken = tmp_path / "broken.btfm"
+    broken.write_bytes(b"not a container")
+    material = bpy.data.materials.new("broken")
+    material.btf.source = str(broken)
+    module = extension_submodule("btf_addon.blender.mapping_panel")
+    materials = extension_submodule("btf_addon.blender.export.materials")
+    calls = []
+    real = materials.load_btf
+    monkeypatch.setattr(materials, "load_btf", lambda path: calls.append(path) or real(path))
+    first = module.stated_size(material.btf)
+    again = module.stated_size(material.btf)
+    assert first[0] is None and "source not readable" in first[1], first
+    assert again == first and len(calls) == 1, calls
+    # A rewritten file (new mtime) is read again: the user fixed it.
+    write_container(broken, stripe_btf(10.0))
+    stamp = broken.stat().st_mtime + 5.0
+    os.utime(broken, (stamp, stamp))
+    size, origin = module.stated_size(material.btf)
+    assert len(calls) == 2 and size is not None, (size, origin)

@@ -34,10 +34,16 @@ class BTFFileKey:
 _btf_cache: dict[BTFFileKey, BTF] = {}
 
 
+def file_key(path: str) -> BTFFileKey:
+    """``path`` (Blender's "//" relative paths allowed) as it is on disk now."""
+    resolved = Path(bpy.path.abspath(path)).resolve()
+    return BTFFileKey(str(resolved), resolved.stat().st_mtime if resolved.exists() else -1.0)
+
+
 def load_cached(path: str) -> BTF:
     """The BTF at ``path`` (Blender's "//" relative paths allowed), loaded once per version."""
-    resolved = Path(bpy.path.abspath(path)).resolve()
-    key = BTFFileKey(str(resolved), resolved.stat().st_mtime if resolved.exists() else -1.0)
+    key = file_key(path)
+    resolved = Path(key.path)
     if key not in _btf_cache:
         _btf_cache[key] = load_btf(resolved)
     return _btf_cache[key]
