@@ -102,6 +102,8 @@ def render(engine, depsgraph) -> None:
         renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
         # None: the environment's choice (BTF_FIXED_LAUNCHES), as the command line.
         renderer.fixed_launch_split = settings.fixed_launch_split or None
+        for note in renderer.notes:
+            engine.report({"WARNING"}, note)
     except OpenCLCompileError as exc:
         # A bug in kernels/ or a driver rejecting valid code: falling back would hide it
         # behind a different image, so the render fails and says where the compiler stopped.
@@ -110,10 +112,15 @@ def render(engine, depsgraph) -> None:
     except (OpenCLUnavailableError, BTFError) as exc:
         # The exception's own advice is for a Python prompt (pip): say it in Blender's words.
         reason = str(exc).split(". Install", 1)[0]
+        if isinstance(exc, OpenCLUnavailableError):
+            why = f"OpenCL unavailable ({reason})"
+            advice = " ".join(opencl_help().splitlines())
+        else:  # OpenCL is there; this scene's data is what it cannot take
+            why, advice = f"The OpenCL final render cannot take this scene ({reason})", ""
         engine.report(
             {"WARNING"},
-            f"OpenCL unavailable ({reason}); rendering with the GLSL viewport path instead "
-            f"(no shadows); no Depth/Normal/UV passes. {' '.join(opencl_help().splitlines())}",
+            f"{why}; rendering with the GLSL viewport path instead "
+            f"(no shadows); no Depth/Normal/UV passes. {advice}".rstrip(),
         )
         last_device = "GLSL fallback (no OpenCL device)"
         combined = render_glsl(engine, exported, settings, w, h, transparent)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.envmap import VirtualLights
+from ..core.gpu_fit import fit_for_gpu
 from ..core.packed import pack
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
@@ -35,6 +36,11 @@ from .programs import build_program
 KERNELS = "render_direct.cl"  # both final-render kernels
 LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
 DEFAULT_FILM = PixelFilter()  # Blender's default film: Blackman-Harris, 1.5 px
+
+
+def device_table_bytes(cl_context: CLContext) -> int:
+    """The largest table buffer the device takes (OpenCL's CL_DEVICE_MAX_MEM_ALLOC_SIZE)."""
+    return int(cl_context.device.max_mem_alloc_size)
 
 
 @dataclass
@@ -66,6 +72,8 @@ class CLRenderer:
         #: True: launches split the same way every run (bit-identical frames, render/launch.py);
         #: None: as BTF_FIXED_LAUNCHES says; False: sized by measured cost.
         self.fixed_launch_split: bool | None = None
+        #: What the caller should tell the user: materials reduced to fit the device.
+        self.notes: list[str] = []
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, self.features.defines()
         )
@@ -122,7 +130,14 @@ class CLRenderer:
         ints, floats, offsets = [], [], []
         i_cursor = f_cursor = 0
         for material in self.scene.materials:
-            packed = pack(material.btf)
+            # Too large for one buffer or for float32 offsets (the packed layout is the GLSL
+            # one): a reduced-resolution copy, as the viewport draws, and a note saying so.
+            btf, note = fit_for_gpu(
+                material.btf, 1 << 30, device_table_bytes(self.ctx), "the final render traces"
+            )
+            if note:
+                self.notes.append(note)
+            packed = pack(btf)
             ints.append(packed.ints.ravel())
             floats.append(packed.floats.ravel())
             offsets += [i_cursor, f_cursor]

@@ -50,10 +50,15 @@ def fits(n_floats: int, max_texture_size: int, max_bytes: int) -> bool:
 
 
 def fit_for_gpu(
-    btf: BTF, max_texture_size: int = MAX_TEXTURE_SIZE, max_bytes: int = MAX_BYTES
+    btf: BTF,
+    max_texture_size: int = MAX_TEXTURE_SIZE,
+    max_bytes: int = MAX_BYTES,
+    who: str = "the viewport draws",
 ) -> tuple[BTF, str | None]:
     """(the BTF to upload, a message when it had to be reduced). Raises UnsupportedBTFError
-    with the sizes when even a 1×1-texel copy would not fit."""
+    with the sizes when even a 1×1-texel copy would not fit. ``who``: what the message says
+    uses the copy ("the final render traces" for OpenCL, whose buffers hold the same layout:
+    offsets as float32, so the 2^24 limit is the same)."""
     while isinstance(btf, DelegatingBTF):
         btf = btf.btf
     n = packed_floats(btf)
@@ -69,7 +74,7 @@ def fit_for_gpu(
             return smaller, (
                 f"{btf.meta.name}: {n * 4 / 2**20:.0f} MiB of tables exceed the GPU's limits "
                 f"(texture height {max_texture_size} × {TABLE_WIDTH}, {max_bytes / 2**20:.0f} "
-                f"MiB, offsets below 2^24); the viewport draws it at {smaller.meta.width}×"
+                f"MiB, offsets below 2^24); {who} it at {smaller.meta.width}×"
                 f"{smaller.meta.height} texels instead of {btf.meta.width}×{btf.meta.height} "
                 "(box-filtered)"
             )
