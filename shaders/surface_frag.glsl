@@ -6,7 +6,8 @@
  *         w = 0 (orthographic).
  * material_block: x = this mesh's row of material_blocks, its material's mapping, texel
  *                 filter and exposure (shaders/btf_mapping_lib.glsl).
- * light_range: x = first light, y = how many, z = exposure multiplier, w = how many Blender
+ * light_range: x = first light, y = how many, z = unused (the exposure multiplier is the
+ *              block's M_EXPOSURE, as the OpenCL kernels read it), w = how many Blender
  *              lights scene_lights holds (shaders/scene_lights_lib.glsl). Each batch adds them
  *              × its light count, so the resolve's division by the lights so far leaves them
  *              added exactly once at every stage of the accumulation. */
@@ -38,5 +39,5 @@ void main()
   if (count > 0 && blender_lights > 0 && wo.z > 0.0) {
     sum += float(count) * scene_lights_sum(blender_lights, v_world, t, b, n, wo_world);
   }
-  frag_color = vec4(sum * light_range.z, 1.0);
+  frag_color = vec4(sum * mblock(M_EXPOSURE), 1.0);
 }

@@ -379,13 +379,12 @@ class ProgressiveDrawer:
         try:
             batches = zip(self.batches, self.batch_blocks, strict=True)
             for (vertices, material_index), block in batches:
-                material = self.scene.materials[material_index]
                 ints, floats = self.tables[material_index]
                 uniforms = {
                     "clip_from_world": clip_from_world,
                     "camera": view.camera,
                     "material_block": (block, 0.0, 0.0, 0.0),  # row in material_blocks
-                    "light_range": (first, count, 2.0**material.exposure, len(self.scene.lights)),
+                    "light_range": (first, count, 0.0, len(self.scene.lights)),
                 }
                 samplers = {
                     "btf_int_tables": ints,

@@ -213,3 +213,20 @@ def test_every_drawer_has_its_own_serial_even_at_a_reused_address(gl_ctx, rng):
         drawer.release()
         del drawer
     assert len(serials) == 4  # (ids may repeat: CPython reuses a freed object's address)
+
+
+def test_exposure_scales_each_material_by_its_own_block(gl_ctx, rng):
+    """The exposure comes from each mesh's material block (as in the OpenCL kernels): +1 stop on
+    one material doubles exactly its pixels (× 2 is exact in float) and leaves the other's."""
+    from btf_addon.gl.renderer import GLSLRenderer
+
+    scene = two_material_scene(rng)
+    scene.lights = []  # Blender's lights are not under the exposure test here
+    lights = scene.environment.virtual_lights(16, seed=3)
+    base = GLSLRenderer(scene, W, H, gl_ctx).render(lights)
+    scene.materials[0].exposure = 1.0
+    brighter = GLSLRenderer(scene, W, H, gl_ctx).render(lights)
+    changed = np.any(brighter != base, axis=-1)
+    assert changed.sum() > 100  # the sphere
+    np.testing.assert_array_equal(brighter[changed], 2.0 * base[changed])
+    assert (~changed).sum() > 100 and base[~changed].max() > 0  # the ground kept its look
