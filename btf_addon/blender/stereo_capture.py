@@ -107,7 +107,7 @@ def capture_scene(
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to capture from")
     if settings is None:
-        settings = RenderSettings.from_properties(scene.btf_render)
+        settings = RenderSettings.from_scene(scene)  # with the film filter, as F12
     exported = export_scene(depsgraph, sized.eye_width, sized.eye_height)
     capture = render_stereo(exported, settings, sized, device)
     capture.messages = list(exported.messages)

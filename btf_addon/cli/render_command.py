@@ -358,7 +358,7 @@ def _render_stereo(bpy, scene, args) -> int:
         raise BTFError(f"the scene {scene.name!r} has no camera to capture from")
     given = overrides(args)
     _check_ranges(scene.btf_render, given)
-    settings = RenderSettings.from_properties(scene.btf_render).with_overrides(**given)
+    settings = RenderSettings.from_scene(scene).with_overrides(**given)  # the film, as F12
     t0 = time.perf_counter()
     capture, written = capture_scene(
         bpy.context.evaluated_depsgraph_get(),
@@ -412,7 +412,7 @@ def prepare_scene(scene, args) -> RenderSettings:
         scene.render.engine = ENGINE_ID
     given = overrides(args)
     _check_ranges(scene.btf_render, given)
-    settings = RenderSettings.from_properties(scene.btf_render).with_overrides(**given)
+    settings = RenderSettings.from_scene(scene).with_overrides(**given)  # the film, as F12
     settings.to_properties(scene.btf_render)
     if args.filter is not False:
         _apply_filter(scene, args.filter)

@@ -37,8 +37,19 @@ from .drawer import MAX_SIZE, ProgressiveDrawer, ViewAccumulation
 
 LAYOUTS = ("side-by-side", "per-eye")
 SUFFIXES = (".exr", ".png")
-#: Lights per batch: a capture is drawn to convergence, the split only bounds one draw call.
+#: Lights per batch without anti-aliasing: a capture is drawn to convergence, the split only
+#: bounds one draw call.
 BATCH = 16
+
+
+def batch_size(settings: RenderSettings, lights: int) -> int:
+    """Lights per batch. Anti-aliased (the film's filter), the lights are split over the
+    settings' ``aa_samples`` subpixel offsets, one per batch, as F12's Virtual Lights mode splits
+    them (gl/drawer.py): the capture is the same filtered image."""
+    if settings.film() is None:
+        return BATCH
+    return max(1, -(-lights // settings.aa_samples))
+
 
 #: (path, (H, W, 3) float32 linear image) → writes a PNG at ``path``.
 PngWriter = Callable[[Path, np.ndarray], None]
@@ -65,6 +76,16 @@ def capture_profile(profile: HeadsetProfile, eye_width: int | None = None) -> He
             "per side; choose a smaller eye width"
         )
     return profile
+
+
+def _film_metadata(settings: RenderSettings, lights: int) -> dict | None:
+    """The pixel filter the eyes were anti-aliased with and over how many subpixel offsets
+    (one per batch); None: pixel centres only."""
+    film = settings.film()
+    if film is None:
+        return None
+    subpixels = -(-lights // batch_size(settings, lights))
+    return {"filter": film.type, "width_px": film.width, "subpixels": subpixels}
 
 
 def head_from_camera(world_from_camera: np.ndarray) -> np.ndarray:
@@ -124,6 +145,7 @@ class StereoCapture:
                 "lighting": self.settings.lighting.name.lower(),
                 "seed": self.settings.seed,
             },
+            "film": _film_metadata(self.settings, self.lights),
             "files": [f.name for f in self.files],
         }
 
@@ -188,9 +210,11 @@ def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> Ste
     try:
         drawer = ProgressiveDrawer(device, scene)
         images = {}
+        film = settings.film()
         for eye in eyes:  # one eye's targets at a time: 3 RGBA32F images of the eye's size
             view = ViewAccumulation(device, eye.width, eye.height)
-            view.set_lights(lights, BATCH)
+            view.set_lights(lights, batch_size(settings, len(lights.pdf)))
+            view.jitter = film  # each batch at the film filter's next subpixel offset
             drawer.restart(view, eye.clip_from_world, [*eye.position, 1.0])
             while drawer.add_batch(view):
                 pass

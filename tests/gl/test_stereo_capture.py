@@ -24,7 +24,8 @@ from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 EYE_WIDTH = 64  # small: the drawer's maths does not depend on the size
-SETTINGS = RenderSettings(lights_total=24, seed=3)
+# Pixel centres: the geometry tests compare with un-jittered single views.
+SETTINGS = RenderSettings(lights_total=24, seed=3, use_antialiasing=False)
 
 
 def sphere_scene(rng, camera_pose: np.ndarray) -> Scene:
@@ -72,15 +73,19 @@ def independent_eyes(head: np.ndarray, prof, near: float, far: float) -> dict:
     return eyes
 
 
-def single_view(device, scene, lights, clip_from_world, position, width, height):
-    """One view through the drawer, lit by ``lights`` in the capture's batch size."""
+def single_view(
+    device, scene, lights, clip_from_world, position, width, height, batch=None, film=None
+):
+    """One view through the drawer, lit by ``lights`` in batches of ``batch`` (None: the
+    capture's un-jittered batch size), each batch at ``film``'s next subpixel offset."""
     from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
     from btf_addon.gl.stereo_capture import BATCH
 
     drawer = ProgressiveDrawer(device, scene)
     view = ViewAccumulation(device, width, height)
     try:
-        view.set_lights(lights, BATCH)
+        view.set_lights(lights, batch or BATCH)
+        view.jitter = film
         drawer.restart(view, clip_from_world, [*position, 1.0])
         while drawer.add_batch(view):
             pass
@@ -120,6 +125,41 @@ def test_each_eye_is_the_single_view_render_of_the_profiles_eye(gl_ctx, rng):
         assert close.mean() >= 0.995, f"{eye.name}: {np.count_nonzero(~close)} pixels differ"
     # The two eyes really differ (different positions and frusta), so the check above means it.
     assert np.abs(capture.images["left"] - capture.images["right"]).max() > 0.05
+
+
+def test_anti_aliased_eyes_split_the_lights_over_subpixels_as_f12(gl_ctx, rng):
+    """With the film's filter (the default settings) each eye is the single view drawn with the
+    lights split over ``aa_samples`` subpixel offsets, one per batch, as F12's Virtual Lights
+    mode splits them: 24 lights over 8 subpixels → batches of 3. Same GL operations → same
+    pixels (the 0.5 % silhouette allowance of the test above). The JSON says so, and the image
+    is not the un-jittered one (silhouettes are softened)."""
+    from btf_addon.gl.moderngl_device import ModernGLDevice
+    from btf_addon.gl.stereo_capture import capture_profile, render_stereo
+
+    settings = RenderSettings(lights_total=24, seed=3, aa_samples=8)
+    head = look_at((0.3, -4.0, 0.8), (0.0, 0.0, 0.0))
+    scene = sphere_scene(rng, head)
+    prof = capture_profile(profile("xtal-8k"), EYE_WIDTH)
+    device = ModernGLDevice(gl_ctx)
+    capture = render_stereo(scene, settings, prof, device)
+    lights = scene.environment.virtual_lights(24, seed=3)
+    film = settings.film()
+    assert capture.metadata("per-eye")["film"] == {
+        "filter": film.type,
+        "width_px": film.width,
+        "subpixels": 8,
+    }
+    for eye in capture.eyes:
+        position = np.linalg.inv(eye.view_from_world)[:3, 3]
+        jittered = single_view(
+            device, scene, lights, eye.clip_from_world, position, 64, 36, 3, film
+        )
+        centred = single_view(device, scene, lights, eye.clip_from_world, position, 64, 36)
+        got = capture.images[eye.name]
+        close = np.isclose(got, jittered, rtol=1e-5, atol=1e-6).all(axis=-1)
+        assert close.mean() >= 0.995, f"{eye.name}: {np.count_nonzero(~close)} pixels differ"
+        softened = ~np.isclose(got, centred, rtol=1e-3, atol=1e-4).all(axis=-1)
+        assert softened.sum() > 20, eye.name  # the sphere's and ground's edges
 
 
 def test_left_eye_sees_a_centred_object_further_right(gl_ctx):
