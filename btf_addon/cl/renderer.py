@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.btf_importance import sampled_by_table
 from ..core.envmap import VirtualLights
 from ..core.packed import pack
 from ..render.launch import LaunchPlan
@@ -66,6 +67,10 @@ class CLRenderer:
         #: True: launches split the same way every run (bit-identical frames, render/launch.py);
         #: None: as BTF_FIXED_LAUNCHES says; False: sized by measured cost.
         self.fixed_launch_split: bool | None = None
+        #: The Sampled mode samples measured BTFs by their tables (core/btf_importance.py,
+        #: built on the first Sampled render); False: cosine sampling, as before them.
+        self.importance_sampling = True
+        self._packed_importance = False
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, self.features.defines()
         )
@@ -118,11 +123,13 @@ class CLRenderer:
         self.corners = self._buffer(tris.ravel(), np.float32)
         self.tri_material = self._buffer(tri_material, np.int32)
 
-    def _upload_materials(self) -> None:
+    def _upload_materials(self, importance: bool = False) -> None:
+        """``importance``: with the measured codecs' sampling tables (the Sampled mode's)."""
         ints, floats, offsets = [], [], []
         i_cursor = f_cursor = 0
+        self._packed_importance = importance
         for material in self.scene.materials:
-            packed = pack(material.btf)
+            packed = pack(material.btf, importance=importance)
             ints.append(packed.ints.ravel())
             floats.append(packed.floats.ravel())
             offsets += [i_cursor, f_cursor]
@@ -287,8 +294,14 @@ class CLRenderer:
         sample's random points depend only on its index), only the rounding of the sums:
         ``fixed_launch_split`` makes frames bit-identical between runs. With a film
         filter each sample's camera ray goes through its own point of the filter's footprint,
-        drawn with the filter's distribution (the mean converges to the filtered image)."""
+        drawn with the filter's distribution (the mean converges to the filtered image).
+        Measured BTFs are sampled by their tables unless ``importance_sampling`` is False."""
         w, h = self.width, self.height
+        want = self.importance_sampling and any(
+            sampled_by_table(m.btf) for m in self.scene.materials
+        )
+        if self._packed_importance != want:  # pack again only where a table changes anything
+            self._upload_materials(want)
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
