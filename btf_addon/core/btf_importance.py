@@ -146,17 +146,21 @@ def build(
     texels: int = TEXELS,
     defensive: float = DEFENSIVE,
     seed: int = 0,
+    uv: np.ndarray | None = None,
 ) -> ImportanceTable:
     """The table of ``btf`` (any codec: it is evaluated through ``BTF.evaluate``, views² ·
     grid² · texels evaluations). ``texels`` is rounded down to a square k × k stratified over
-    the texture (k ≥ 1)."""
+    the texture (k ≥ 1); ``uv``: (T, 2) texture coordinates to average instead (a cluster's
+    texels)."""
     t0 = time.perf_counter()
     while isinstance(btf, DelegatingBTF):
         btf = btf.btf  # the numpy codec under a device wrapper
     rng = np.random.default_rng(seed)
     k = max(math.isqrt(max(texels, 1)), 1)
     strata = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2) + 0.5) / k
-    uv = strata + rng.uniform(-0.5, 0.5, strata.shape) / k  # (T, 2) jittered texels
+    if uv is None:
+        uv = strata + rng.uniform(-0.5, 0.5, strata.shape) / k  # (T, 2) jittered texels
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     n_t, n_c = len(uv), grid * grid
     cells = np.stack(np.meshgrid(np.arange(grid), np.arange(grid)), -1).reshape(-1, 2)  # (col, row)
     view_centres = np.stack(np.meshgrid(np.arange(views), np.arange(views)), -1).reshape(-1, 2)

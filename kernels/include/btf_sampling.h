@@ -99,7 +99,7 @@ inline float is_pdf(Stream I, Stream F, int block, float3 wi)
 
 /* A direction from the table: the row by the marginal CDF, the column by the row's CDF, then
  * uniform in the cell, through the concentric map and Malley's projection. */
-inline float3 is_sample(Stream I, Stream F, int block, float2 u)
+inline float3 is_sample(Stream I, Stream F, int block, float2 u, int *cell)
 {
   int g = ITAB(H_IMPORTANCE_GRID);
   Stream rows = F + block + g * g;
@@ -110,6 +110,7 @@ inline float3 is_sample(Stream I, Stream F, int block, float2 u)
   float fc = (u.y - cols[col]) / fmax(cols[col + 1] - cols[col], 1e-30f);
   /* kept inside the cell, so is_pdf finds the cell it was drawn from */
   float2 s = ((float2)(col, row) + clamp((float2)(fc, fr), 1e-4f, 1.0f - 1e-4f)) / (float)g;
+  *cell = row * g + col;
   float2 d = is_square_to_disk(s);
   return (float3)(d.x, d.y, sqrt(fmax(1.0f - dot(d, d), 0.0f)));
 }
@@ -156,11 +157,21 @@ inline float3 ggx_vndf_sample(float alpha2, float3 wo, float2 u)
   return 2.0f * dot(wo, m) * m - wo;
 }
 
-/* The mixture's pdf of wi (tangent frame). */
-inline float bsdf_pdf(Stream I, Stream F, float3 wi, float3 wo)
+/* The table's view block of wo for the functions below (0: no table; the analytic mixture).
+ * A path vertex looks it up once for its environment sample's pdf and its BTF sample. */
+inline int bsdf_table(Stream I, float3 wo)
 {
 #if HAS_BTF_IS
-  int block = is_view_block(I, wo);
+  return is_view_block(I, wo);
+#else
+  return 0;
+#endif
+}
+
+/* The mixture's pdf of wi (tangent frame); `block` = bsdf_table(I, wo). */
+inline float bsdf_pdf_at(Stream I, Stream F, int block, float3 wi, float3 wo)
+{
+#if HAS_BTF_IS
   if (block > 0) {
     return is_pdf(I, F, block, wi);
   }
@@ -170,21 +181,42 @@ inline float bsdf_pdf(Stream I, Stream F, float3 wi, float3 wo)
   return p > 0.0f ? p * ggx_vndf_pdf(FTAB(F_ALPHA2), wi, wo) + (1.0f - p) * cosine : cosine;
 }
 
-/* A direction from the mixture: `choice` in [0, 1) picks the lobe, `u` places the sample. */
-inline float3 bsdf_sample(Stream I, Stream F, float3 wo, float choice, float2 u)
+/* A direction from the mixture and its pdf (*pdf = bsdf_pdf_at of it): `choice` in [0, 1)
+ * picks the lobe, `u` places the sample. A table's sample knows its cell, so its pdf costs no
+ * second lookup; the analytic mixture's is bsdf_pdf_at, as before the table existed. */
+inline float3 bsdf_sample_at(Stream I, Stream F, int block, float3 wo, float choice, float2 u,
+                             float *pdf)
 {
 #if HAS_BTF_IS
-  int block = is_view_block(I, wo);
   if (block > 0) {
-    return is_sample(I, F, block, u); /* the cosine share is inside the table: no choice */
+    int cell;
+    float3 d = is_sample(I, F, block, u, &cell); /* the cosine share is inside the table */
+    *pdf = F[block + cell] * d.z / M_PI_F;
+    return d;
   }
 #endif
+  float3 d;
   float p = ggx_lobe_probability(I, F);
   if (choice < p) {
-    return ggx_vndf_sample(FTAB(F_ALPHA2), wo, u);
+    d = ggx_vndf_sample(FTAB(F_ALPHA2), wo, u);
   }
-  float r = sqrt(u.x), phi = 2.0f * M_PI_F * u.y;
-  return (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(1.0f - u.x, 0.0f)));
+  else {
+    float r = sqrt(u.x), phi = 2.0f * M_PI_F * u.y;
+    d = (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(1.0f - u.x, 0.0f)));
+  }
+  *pdf = bsdf_pdf_at(I, F, block, d, wo);
+  return d;
+}
+
+/* The same without a looked-up block. */
+inline float bsdf_pdf(Stream I, Stream F, float3 wi, float3 wo)
+{
+  return bsdf_pdf_at(I, F, bsdf_table(I, wo), wi, wo);
+}
+
+inline float3 bsdf_sample(Stream I, Stream F, float3 wo, float choice, float2 u, float *pdf)
+{
+  return bsdf_sample_at(I, F, bsdf_table(I, wo), wo, choice, u, pdf);
 }
 
 #endif

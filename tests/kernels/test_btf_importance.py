@@ -54,18 +54,20 @@ class Sampler:
         return host, self.cl.Buffer(self.ctx.context, self.cl.mem_flags.WRITE_ONLY, host.nbytes)
 
     def sample(self, wo, u, choice):
-        """(N, 3) directions and their pdf from (N, 2) points and (N,) lobe choices."""
+        """(N, 3) directions, the pdf the sampler states and bsdf_pdf's of them, from (N, 2)
+        points and (N,) lobe choices."""
         n = len(u)
         wi, wi_buf = self._out((n, 3))
         pdf, pdf_buf = self._out(n)
+        again, again_buf = self._out(n)
         wo4 = np.array([*wo, 0.0], np.float32)
         self.sample_kernel(
             self.ctx.queue, (n,), None, np.int32(n), self.I, self.F, wo4, self._in(u),
-            self._in(choice), wi_buf, pdf_buf,
+            self._in(choice), wi_buf, pdf_buf, again_buf,
         )  # fmt: skip
-        self.cl.enqueue_copy(self.ctx.queue, wi, wi_buf)
-        self.cl.enqueue_copy(self.ctx.queue, pdf, pdf_buf)
-        return wi, pdf
+        for host, buf in ((wi, wi_buf), (pdf, pdf_buf), (again, again_buf)):
+            self.cl.enqueue_copy(self.ctx.queue, host, buf)
+        return wi, pdf, again
 
     def pdf(self, wo, wi):
         n = len(wi)
@@ -125,13 +127,15 @@ def test_sampler_matches_its_pdf_chi_square(alu_sampler, view):
     finely). Bins expecting < 5 samples are pooled. Measured p = 0.09–0.76 over the four views;
     the same samples tested against plain cosine sampling's pdf give χ² ≈ 4,000–39,000
     (p = 0), so a sampler drawing from another density than bsdf_pdf states fails. Also: the
-    returned pdf is bsdf_pdf of the sample, equal to the numpy reference (float32 rounding)."""
+    pdf the sampler states is bsdf_pdf of its sample and equals the numpy reference (float32
+    rounding)."""
     rng = np.random.default_rng(17)
     wo = direction(*VIEWS[view])
     n = 100_000
     u = rng.random((n, 2))
-    wi, pdf = alu_sampler.sample(wo, u, rng.random(n))
+    wi, pdf, again = alu_sampler.sample(wo, u, rng.random(n))
     assert np.all(wi[:, 2] >= 0.0) and np.all(pdf > 0.0)
+    np.testing.assert_allclose(pdf, again, rtol=1e-5)  # the same cell; d is unit to 1e-6
     table = btf_importance.importance_table(alu_sampler.btf)
     ref = table.pdf(wi.astype(np.float64), np.broadcast_to(wo, wi.shape))
     np.testing.assert_allclose(pdf, ref, rtol=1e-4)  # float32 maps vs float64
@@ -186,7 +190,7 @@ def test_tables_only_for_measured_codecs(cl_context):
         with_is, without = Sampler(cl_context, btf), Sampler(cl_context, btf, {"HAS_BTF_IS": 0})
         assert with_is.packed.ints.ravel()[INT_SLOT["f_importance"]] == 0
         a, b = with_is.sample(wo, u, choice), without.sample(wo, u, choice)
-        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+        assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
     lambert = with_is.sample(wo, u, choice)
     np.testing.assert_allclose(lambert[1], lambert[0][:, 2] / math.pi, rtol=1e-5)
 
