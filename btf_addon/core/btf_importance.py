@@ -188,8 +188,8 @@ _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def importance_table(btf: BTF) -> ImportanceTable:
-    """``build(btf)`` with the defaults, built once per BTF object (the F12 renders of a
-    session share it: a material's load is when it is built)."""
+    """``build(btf)`` with the defaults, built once per BTF object: on the first Sampled render
+    of a loaded material (≈ 1.5 s on 2 cores); later renders of the session share it."""
     try:
         table = _CACHE.get(btf)
     except TypeError:  # not weak-referenceable: no cache
