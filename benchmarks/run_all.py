@@ -7,6 +7,7 @@ import platform
 import bench_aa
 import bench_accuracy
 import bench_bridge
+import bench_btf_importance
 import bench_decode
 import bench_envmap
 import bench_final_render
@@ -33,6 +34,7 @@ if __name__ == "__main__":
         bench_mapping,
         bench_aa,
         bench_specialise,
+        bench_btf_importance,
         bench_wiimote,
         bench_formats,
         bench_accuracy,  # last: it rewrites its section of docs/accuracy.md

@@ -309,6 +309,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       __global const float *F = floats + material_offsets[2 * cur.material + 1];
       float exposure = cur.exposure;
       int pixel;
+      int table = bsdf_table(I, cur.wo); /* the BTF's sampling table for this view, if any */
       /* 1. Next-event estimation: a direction from the environment's distribution. */
 #if !HAS_ENVIRONMENT /* black: it adds 0; its random numbers are still drawn (same image) */
       (void)next_2d(&smp);
@@ -325,7 +326,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                                    (row + clamp(dt, 0.0f, 0.999999f)) / env_h, rotation);
         float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
         float3 wi = to_frame(&cur, dir);
-        float pdf_bsdf = bsdf_pdf(I, F, wi, cur.wo);
+        float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
         bool visible = wi.z > 0.0f && pdf_light > 0.0f;
 #if HAS_SHADOWS
         float ts, us, vs;
@@ -347,8 +348,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
        * World (MIS-weighted against the environment sample above) or, within the bounce
        * limit, continues the path. */
       float2 uc = next_2d(&smp);
-      float3 lo = bsdf_sample(I, F, cur.wo, rand01(&smp.rng), uc);
-      float pdf_bsdf = bsdf_pdf(I, F, lo, cur.wo);
+      float pdf_bsdf;
+      float3 lo = bsdf_sample_at(I, F, table, cur.wo, rand01(&smp.rng), uc, &pdf_bsdf);
       if (!(pdf_bsdf > 0.0f) || lo.z <= 0.0f) {
         break;
       }

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.btf_importance import sampled_by_table
 from ..core.envmap import VirtualLights
 from ..core.gpu_fit import fit_for_gpu
 from ..core.packed import pack
@@ -74,6 +75,11 @@ class CLRenderer:
         self.fixed_launch_split: bool | None = None
         #: What the caller should tell the user: materials reduced to fit the device.
         self.notes: list[str] = []
+        self._fitted: list | None = None  # _device_btfs
+        #: The Sampled mode samples measured BTFs by their tables (core/btf_importance.py,
+        #: built on the first Sampled render); False: cosine sampling, as before them.
+        self.importance_sampling = True
+        self._packed_importance = False
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, self.features.defines()
         )
@@ -126,18 +132,29 @@ class CLRenderer:
         self.corners = self._buffer(tris.ravel(), np.float32)
         self.tri_material = self._buffer(tri_material, np.int32)
 
-    def _upload_materials(self) -> None:
+    def _device_btfs(self) -> list:
+        """The scene's BTFs as the device takes them, fitted once (the materials are packed
+        again when the Sampled mode adds sampling tables). One too large for one buffer or for
+        float32 offsets (the packed layout is the GLSL one) becomes a reduced-resolution copy,
+        as the viewport draws it, with a note saying so."""
+        if self._fitted is None:
+            self._fitted = []
+            for material in self.scene.materials:
+                btf, note = fit_for_gpu(
+                    material.btf, 1 << 30, device_table_bytes(self.ctx), "the final render traces"
+                )
+                if note:
+                    self.notes.append(note)
+                self._fitted.append(btf)
+        return self._fitted
+
+    def _upload_materials(self, importance: bool = False) -> None:
+        """``importance``: with the measured codecs' sampling tables (the Sampled mode's)."""
         ints, floats, offsets = [], [], []
         i_cursor = f_cursor = 0
-        for material in self.scene.materials:
-            # Too large for one buffer or for float32 offsets (the packed layout is the GLSL
-            # one): a reduced-resolution copy, as the viewport draws, and a note saying so.
-            btf, note = fit_for_gpu(
-                material.btf, 1 << 30, device_table_bytes(self.ctx), "the final render traces"
-            )
-            if note:
-                self.notes.append(note)
-            packed = pack(btf)
+        self._packed_importance = importance
+        for btf in self._device_btfs():
+            packed = pack(btf, importance=importance)
             ints.append(packed.ints.ravel())
             floats.append(packed.floats.ravel())
             offsets += [i_cursor, f_cursor]
@@ -302,8 +319,14 @@ class CLRenderer:
         sample's random points depend only on its index), only the rounding of the sums:
         ``fixed_launch_split`` makes frames bit-identical between runs. With a film
         filter each sample's camera ray goes through its own point of the filter's footprint,
-        drawn with the filter's distribution (the mean converges to the filtered image)."""
+        drawn with the filter's distribution (the mean converges to the filtered image).
+        Measured BTFs are sampled by their tables unless ``importance_sampling`` is False."""
         w, h = self.width, self.height
+        want = self.importance_sampling and any(
+            sampled_by_table(m.btf) for m in self.scene.materials
+        )
+        if self._packed_importance != want:  # pack again only where a table changes anything
+            self._upload_materials(want)
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import btf_importance
 from .errors import UnsupportedBTFError
 from .model import BTF, DelegatingBTF
 
@@ -88,6 +89,10 @@ INT_HEADER: tuple[str, ...] = (
     # (rank, U offset, SV offset) per channel, and the colour transform's 15 floats
     "svd_channels",
     "f_svd_colour",
+    # importance sampling of measured codecs (core/btf_importance.py; 0: none, cosine sampling)
+    "f_importance",
+    "importance_grid",
+    "importance_views",
 )
 
 #: Float header slots in order as (name, number of floats); device code names the first float
@@ -289,8 +294,10 @@ def layout_stream(stream: np.ndarray) -> np.ndarray:
     return out.reshape(rows, TABLE_WIDTH)
 
 
-def pack(btf: BTF) -> PackedTables:
-    """A BTF's tables in the packed layout (a device wrapper packs the BTF it wraps)."""
+def pack(btf: BTF, importance: bool = False) -> PackedTables:
+    """A BTF's tables in the packed layout (a device wrapper packs the BTF it wraps).
+    ``importance``: a measured codec's sampling table too (core/btf_importance.py; the Sampled
+    final render's), built once per BTF object."""
     while isinstance(btf, DelegatingBTF):
         btf = btf.btf
     codec = _CODECS.get(btf.meta.codec)
@@ -304,6 +311,13 @@ def pack(btf: BTF) -> PackedTables:
     codec.pack(btf, writer)
     if codec.name == "mlvq":
         mlvq_fast_tables(btf.t, writer)
+    if importance and btf_importance.sampled_by_table(btf):
+        table = btf_importance.importance_table(btf)
+        writer.set(
+            f_importance=writer.float_table(table.packed()),
+            importance_grid=table.grid,
+            importance_views=table.views,
+        )
     return writer.finish(btf.meta.name)
 
 
