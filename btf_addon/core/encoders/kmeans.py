@@ -28,47 +28,60 @@ def block_rows(k: int) -> int:
     return max(64, min(CHUNK, BLOCK // max(1, k)))
 
 
+def score_weights(
+    centres: np.ndarray, scale_free: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the nearest codeword maximises, score = ⟨x, w_c⟩ + bias_c (scale-free: clamped at
+    0). Returns w (K, D) float32, bias (K,) float32, ‖c‖² (K,) float64.
+
+    Plain: ‖x‖² is the same for every centre, so argmin ‖x − c‖² = argmax ⟨x, c⟩ − ‖c‖²/2.
+    Scale-free: ⟨x, c⟩₊² / ‖c‖² is monotonic in ⟨x, c⟩₊ / ‖c‖: unit centres (a zero centre
+    scores 0)."""
+    c = np.ascontiguousarray(centres, dtype=np.float32)
+    cc = np.einsum("kd,kd->k", c, c, dtype=np.float64)
+    if scale_free:
+        inv = np.divide(1.0, np.sqrt(cc), out=np.zeros_like(cc), where=cc > 0)
+        return c * inv[:, None].astype(np.float32), np.zeros(len(c), np.float32), cc
+    return c, (-0.5 * cc).astype(np.float32), cc
+
+
+def best_scales(x: np.ndarray, centres: np.ndarray, cc: np.ndarray, best: np.ndarray) -> np.ndarray:
+    """The least-squares non-negative scale of each row of ``x`` (N, D) on its chosen centre
+    ``centres[best]``, in float64 (N,); 0 for a zero centre."""
+    d = np.einsum("nd,nd->n", x, centres[best], dtype=np.float64)
+    c2 = cc[best]
+    return np.divide(np.maximum(d, 0.0), c2, out=np.zeros(len(x)), where=c2 > 0)
+
+
 def nearest(
     x: np.ndarray, centres: np.ndarray, scale_free: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Index of the closest centre for every row of ``x`` (N, D) among ``centres`` (K, D).
 
     ``scale_free``: closest after the best non-negative scale of the centre (minimises
-    ‖x − s·c‖² over s ≥ 0, i.e. maximises ⟨x, c⟩₊ / ‖c‖); returns that scale too. Otherwise
-    the plain Euclidean nearest centre (maximises ⟨x, c⟩ − ‖c‖²/2) and a scale of 1. Returns
-    (N,) int64, (N,) float64.
+    ‖x − s·c‖² over s ≥ 0); returns that scale too. Otherwise the plain Euclidean nearest
+    centre and a scale of 1. Returns (N,) int64, (N,) float64.
 
-    One float32 matrix product per block and one argmax (ties and the all-non-positive case:
-    the lowest index); the scale is recomputed in float64 for the chosen centre only. The
-    float32 scores can reorder centres whose scores differ by ~1e-7 relative (near ties)."""
+    Per block of rows one float32 matrix product (``score_weights``) and one argmax: ties
+    and the all-non-positive scale-free case go to the lowest index. Float32 scores can swap
+    centres whose scores differ by ~1e-7 relative (near ties); the scale is float64."""
     n = len(x)
     labels = np.zeros(n, dtype=np.int64)
     scales = np.ones(n, dtype=np.float64)
     c = np.ascontiguousarray(centres, dtype=np.float32)
-    cc = np.einsum("kd,kd->k", c, c, dtype=np.float64)
-    if scale_free:
-        # ⟨x, c⟩₊² / ‖c‖² is monotonic in ⟨x, c⟩₊ / ‖c‖: unit centres, then one argmax.
-        inv = np.divide(1.0, np.sqrt(cc), out=np.zeros_like(cc), where=cc > 0)
-        w = (c * inv[:, None].astype(np.float32)).T.copy()
-    else:
-        # ‖x‖² is the same for every centre: argmax of [x, 1] · [c, −‖c‖²/2].
-        w = np.concatenate([c, (-0.5 * cc)[:, None].astype(np.float32)], axis=1).T.copy()
+    w, bias, cc = score_weights(c, scale_free)
+    wt = w.T.copy()
     rows = block_rows(len(c))
     for start in range(0, n, rows):
         xs = np.asarray(x[start : start + rows], dtype=np.float32)
+        scores = xs @ wt
+        scores += bias
         if scale_free:
-            scores = xs @ w
             np.maximum(scores, 0.0, out=scores)
-        else:
-            scores = np.concatenate([xs, np.ones((len(xs), 1), np.float32)], axis=1) @ w
         best = np.argmax(scores, axis=1)
         labels[start : start + len(xs)] = best
         if scale_free:
-            d = np.einsum("nd,nd->n", xs, c[best], dtype=np.float64)
-            c2 = cc[best]
-            scales[start : start + len(xs)] = np.divide(
-                np.maximum(d, 0.0), c2, out=np.zeros(len(xs)), where=c2 > 0
-            )
+            scales[start : start + len(xs)] = best_scales(xs, c, cc, best)
     return labels, scales
 
 
