@@ -334,9 +334,9 @@ def encode_mlvq(
     scales[train_texels] = np.where(black, 0.0, s6)
     del values, x2, x3, x4
     rest = np.setdiff1d(np.arange(h * w), train_texels)
-    for start in range(0, len(rest), s.block_texels):
-        step(0.85 + 0.1 * start / len(rest), "level 6: texels outside the training sample")
-        block = rest[start : start + s.block_texels]
+    for first in range(0, len(rest), s.block_texels):  # not `start`: that is the clock
+        step(0.85 + 0.1 * first / len(rest), "level 6: texels outside the training sample")
+        block = rest[first : first + s.block_texels]
         x = sample_grid(btf, p, None, block).reshape(len(block), -1)
         idx, scale = assign(x, decoded4, True)
         lit = x.max(axis=1) > 0
