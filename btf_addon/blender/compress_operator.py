@@ -17,6 +17,7 @@ from pathlib import Path
 from bpy.props import IntProperty, StringProperty
 from bpy.types import Operator
 
+from ..cl.encoder_assign import opencl_assign_or_none
 from ..core.codecs import load_btf
 from ..core.container import SUFFIX, write_container
 from ..core.encoders import metrics
@@ -51,7 +52,8 @@ class Job:
     def _work(self) -> None:
         try:
             btf = load_btf(self.src)
-            encoded, stats = encode_mlvq(btf, self.settings, self._progress)
+            assign = opencl_assign_or_none()  # a GPU's OpenCL step, else numpy
+            encoded, stats = encode_mlvq(btf, self.settings, self._progress, assign=assign)
             write_container(self.out, encoded)
             size = metrics.sizes(encoded, self.settings.scale_bits)
             self.summary = (

@@ -16,6 +16,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from ..cl.encoder_assign import opencl_assign_or_none
 from ..core import memory
 from ..core.codecs import load_btf
 from ..core.container import SUFFIX, write_container
@@ -99,7 +100,8 @@ def cmd_compress(args) -> int:
     )
     bar = ProgressBar()
     try:
-        encoded, stats = encode_mlvq(src, settings, bar)
+        assign = opencl_assign_or_none()  # a GPU's OpenCL step, else numpy
+        encoded, stats = encode_mlvq(src, settings, bar, assign=assign)
         if not args.no_psnr:
             bar(1.0, "measuring PSNR")
     finally:

@@ -47,7 +47,7 @@ from ..colour import ycbcr_to_rgb
 from ..errors import BTFFormatError
 from ..mlvq import LDR_VALUE_SCALE, MLVQBTF, MLVQParams
 from ..model import BTF
-from .kmeans import kmeans, nearest
+from .kmeans import Assign, kmeans, nearest
 
 #: ``progress(fraction 0..1, what)``; may raise (KeyboardInterrupt, a cancel exception) to stop.
 Progress = Callable[[float, str], None]
@@ -87,10 +87,17 @@ class MLVQSettings:
     seed: int = 0
     iterations: int = 8
     train: int = 20000
+    #: Training rows per codeword at least (0: ``train`` alone): a codebook of 36 000 entries
+    #: needs more than 20 000 rows. Rows per k-means = max(train, train_per_code × k).
+    train_per_code: int = 0
     #: Texels whose data trains the codebooks (a seeded sample; 0 = all). The rest are only
     #: assigned a P4 row and scale, block by block: memory is bounded by this, not by W × H.
     train_texels: int = 4096
     block_texels: int = 1024
+
+    def train_rows(self, k: int) -> int:
+        """Rows a k-means of ``k`` centres trains on."""
+        return max(self.train, self.train_per_code * k)
 
     def __post_init__(self) -> None:
         for name in ("k1", "k2", "k3", "k4", "k_colours", "k_index_ab", "k_colour_functions"):
@@ -231,8 +238,13 @@ def encode_mlvq(
     settings: MLVQSettings = MLVQSettings(),
     progress: Progress | None = None,
     name: str | None = None,
+    assign: Assign | None = None,
 ) -> tuple[MLVQBTF, EncodeStats]:
-    """Compress ``btf`` → an ``MLVQBTF`` (LDR, 8-bit scale values) and its statistics."""
+    """Compress ``btf`` → an ``MLVQBTF`` (LDR, 8-bit scale values) and its statistics.
+
+    ``assign``: the nearest-codeword step of every level (default ``kmeans.nearest``, numpy);
+    ``cl.encoder_assign.opencl_assign_or_none()`` gives the OpenCL one."""
+    assign = nearest if assign is None else assign
     start = time.perf_counter()
     s = settings
     rng = np.random.default_rng(s.seed)
@@ -266,18 +278,20 @@ def encode_mlvq(
         train_rows = np.arange(1)
     norm = np.where(lit, _NORM_MEAN / np.where(lit, mean2, 1.0), 0.0).astype(np.float32)
     sample = train_rows
-    if len(sample) > s.train:
-        sample = np.sort(rng.choice(train_rows, s.train, replace=False))
-    centres2, _ = kmeans(x2[sample] * norm[sample, None], s.k2, rng, s.iterations, s.train, cancel)
+    if len(sample) > s.train_rows(s.k2):
+        sample = np.sort(rng.choice(train_rows, s.train_rows(s.k2), replace=False))
+    centres2, _ = kmeans(
+        x2[sample] * norm[sample, None], s.k2, rng, s.iterations, s.train_rows(s.k2), cancel, assign
+    )
     if not lit.any():
         centres2[:] = 0.0
 
     step(0.45, "level 1: luminance slices and colours")
-    t = _split_entries(centres2.reshape(-1, s.n_alpha, s.n_beta, 3), s, rng, cancel)
+    t = _split_entries(centres2.reshape(-1, s.n_alpha, s.n_beta, 3), s, rng, cancel, assign)
     decoded2 = _entry_rgb(t).reshape(len(centres2), -1).astype(np.float32)
 
     step(0.55, "level 2: assigning 2D functions")
-    idx2, s3_inst = nearest(x2, decoded2, scale_free=True)
+    idx2, s3_inst = assign(x2, decoded2, True)
 
     step(0.65, "level 3: clustering θv runs")
     n3 = n_tex * s.n_phi
@@ -292,6 +306,7 @@ def encode_mlvq(
         s,
         rng,
         cancel,
+        assign,
     )
     t["pdf3_slices"], t["pdf3_scale"] = p3_idx, p3_scale
 
@@ -307,6 +322,7 @@ def encode_mlvq(
         s,
         rng,
         cancel,
+        assign,
     )
     t["pdf4_slices"], t["pdf4_scale"] = p4_idx, p4_scale
     del decoded3
@@ -318,11 +334,11 @@ def encode_mlvq(
     scales[train_texels] = np.where(black, 0.0, s6)
     del values, x2, x3, x4
     rest = np.setdiff1d(np.arange(h * w), train_texels)
-    for start in range(0, len(rest), s.block_texels):
-        step(0.85 + 0.1 * start / len(rest), "level 6: texels outside the training sample")
-        block = rest[start : start + s.block_texels]
+    for first in range(0, len(rest), s.block_texels):  # not `start`: that is the clock
+        step(0.85 + 0.1 * first / len(rest), "level 6: texels outside the training sample")
+        block = rest[first : first + s.block_texels]
         x = sample_grid(btf, p, None, block).reshape(len(block), -1)
-        idx, scale = nearest(x, decoded4, scale_free=True)
+        idx, scale = assign(x, decoded4, True)
         lit = x.max(axis=1) > 0
         slots[block] = np.where(lit, idx + 1, 0)
         scales[block] = np.where(lit, scale, 0.0)
@@ -341,7 +357,7 @@ def encode_mlvq(
     return out, EncodeStats(time.perf_counter() - start, counts)
 
 
-def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel):
+def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel, assign):
     """One upper level: instances ``x`` (N, parts·D) already encoded part by part as
     (idx_below, scale_below) (N, parts). Clusters the normalised data, re-encodes each centre
     part by part on ``decoded_below`` (K_below, D), then assigns every instance to its best
@@ -352,7 +368,8 @@ def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel):
     lit = np.flatnonzero(mean > 0)
     if len(lit) == 0:
         lit = np.arange(1)
-    pick = lit if len(lit) <= s.train else np.sort(rng.choice(lit, s.train, replace=False))
+    n_pick = s.train_rows(k)
+    pick = lit if len(lit) <= n_pick else np.sort(rng.choice(lit, n_pick, replace=False))
     sample = x[pick] * (_NORM_MEAN / np.maximum(mean[pick], 1e-30)).astype(np.float32)[:, None]
     if len(lit) <= k:
         # Few instances: their own (already encoded) rows are the codebook, exactly.
@@ -362,41 +379,45 @@ def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel):
         rows_idx = pairs[:, :parts].astype(np.int32)
         rows_scale = pairs[:, parts:].astype(np.float32)
     else:
-        centres, _ = kmeans(sample, k, rng, s.iterations, s.train, cancel)
+        centres, _ = kmeans(sample, k, rng, s.iterations, n_pick, cancel, assign)
         parts_c = centres.reshape(len(centres) * parts, -1)
-        ri, rs = nearest(parts_c, decoded_below, scale_free=True)
+        ri, rs = assign(parts_c, decoded_below, True)
         rows_idx = ri.reshape(len(centres), parts).astype(np.int32)
         rows_scale = rs.reshape(len(centres), parts).astype(np.float32)
     cancel()
     decoded = decoded_below[rows_idx] * rows_scale[..., None]
     decoded = decoded.reshape(len(rows_idx), -1).astype(np.float32)
-    idx, scale = nearest(x, decoded, scale_free=True)
+    idx, scale = assign(x, decoded, True)
     del n
     return rows_idx, rows_scale, decoded, idx, scale
 
 
-def _split_entries(entries, s: MLVQSettings, rng, cancel) -> dict[str, np.ndarray]:
+def _split_entries(entries, s: MLVQSettings, rng, cancel, assign: Assign) -> dict[str, np.ndarray]:
     """2D RGB entries (K, α, β, 3) on the 8-bit scale → the P1/colour/P2 tables."""
     k, na, nb, _ = entries.shape
+
+    def km(data: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+        return kmeans(data, n, rng, s.iterations, s.train_rows(n), cancel, assign)
+
     ycc = np.einsum("ij,kabj->kabi", _M_INV, entries.astype(np.float64)) + _OFFSET
     lum = ycc[..., 0].reshape(k * na, nb)
     peak = np.abs(lum).max(axis=1)
     shapes = np.where(peak[:, None] > 0, lum / np.where(peak > 0, peak, 1.0)[:, None], 0.0)
-    pdf1, _ = kmeans(shapes.astype(np.float32), s.k1, rng, s.iterations, s.train, cancel)
-    slices, lum_scale = nearest(lum.astype(np.float32), pdf1, scale_free=True)
+    pdf1, _ = km(shapes.astype(np.float32), s.k1)
+    slices, lum_scale = assign(lum.astype(np.float32), pdf1, True)
 
     ab = ycc[..., 1:].reshape(-1, 2).astype(np.float32)
-    colours, _ = kmeans(ab, s.k_colours, rng, s.iterations, s.train, cancel)
+    colours, _ = km(ab, s.k_colours)
     runs = ycc[..., 1:].reshape(k * na, nb * 2).astype(np.float32)
-    run_centres, _ = kmeans(runs, s.k_index_ab, rng, s.iterations, s.train, cancel)
-    index_ab, _ = nearest(run_centres.reshape(-1, 2), colours)
+    run_centres, _ = km(runs, s.k_index_ab)
+    index_ab, _ = assign(run_centres.reshape(-1, 2), colours, False)
     index_ab = index_ab.reshape(len(run_centres), nb)
     decoded_runs = colours[index_ab].reshape(len(index_ab), nb * 2)
-    run_of, _ = nearest(runs, decoded_runs)
+    run_of, _ = assign(runs, decoded_runs, False)
     colour_rows = run_of.reshape(k, na)
     flat = decoded_runs[colour_rows].reshape(k, -1)
-    fn_centres, _ = kmeans(flat, s.k_colour_functions, rng, s.iterations, s.train, cancel)
-    fn_rows, _ = nearest(fn_centres.reshape(-1, nb * 2), decoded_runs)
+    fn_centres, _ = km(flat, s.k_colour_functions)
+    fn_rows, _ = assign(fn_centres.reshape(-1, nb * 2), decoded_runs, False)
     fn_rows = fn_rows.reshape(len(fn_centres), na)
     col_fn, _ = nearest(flat, decoded_runs[fn_rows].reshape(len(fn_rows), -1))
     return {
