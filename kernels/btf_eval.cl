@@ -32,10 +32,10 @@ __kernel void eval_mlvq(__global const float *q, __global const float *dirs, con
   int first = get_global_id(0) * MLVQ_BATCH;
   MLVQWalk w[MLVQ_BATCH];
   for (int j = 0; j < MLVQ_BATCH; j++) {
-    int row = min(first + j, n - 1); /* a short last batch repeats its last row */
+    int row = BTF_IMIN(first + j, n - 1); /* a short last batch repeats its last row */
     __global const float *r = q + 6 * row;
-    w[j].c = mlvq_cell(I, F, vload3(2 * row, dirs), r[2], r[3], r[4], r[5]);
-    mlvq_walk_texel(I, F, &w[j], vload2(0, r));
+    w[j].c = mlvq_cell(I, F, btf_ld3(dirs + 6 * row), r[2], r[3], r[4], r[5]);
+    mlvq_walk_texel(I, F, &w[j], btf_ld2(r));
   }
   for (int j = 0; j < MLVQ_BATCH; j++) {
     mlvq_walk_rows(F, &w[j]);
@@ -46,8 +46,10 @@ __kernel void eval_mlvq(__global const float *q, __global const float *dirs, con
   float scale = FTAB(F_VALUE_SCALE);
   for (int j = 0; j < MLVQ_BATCH; j++) {
     float3 value = mlvq_walk_rgb(I, F, &w[j]) * scale;
-    if (first + j < n) {
-      vstore3(value, first + j, out);
+    if (first + j < n) { /* plain stores: PoCL's vstore3 is a call too */
+      out[3 * (first + j)] = value.x;
+      out[3 * (first + j) + 1] = value.y;
+      out[3 * (first + j) + 2] = value.z;
     }
   }
 }

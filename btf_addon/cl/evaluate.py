@@ -92,9 +92,9 @@ def mlvq_launch(btf: BTF, device) -> tuple[int, int | None]:
     return 1, None
 
 
-#: Queries per work-item of eval_mlvq on a CPU: 4 was the best of 1, 2, 4, 8 in the A/B runs of
-#: docs/accuracy.md (wallpaper random: +25 % over one).
-MLVQ_BATCH_CPU = 4
+#: Queries per work-item of eval_mlvq on a CPU: 8 was the best of 1, 2, 4, 8, 16 in the A/B runs of
+#: docs/accuracy.md (wallpaper random: 2× one query per work-item).
+MLVQ_BATCH_CPU = 8
 
 
 def device_btf(btf: BTF, cl_context: CLContext) -> DelegatingBTF:

@@ -34,14 +34,44 @@ typedef __global const float *Stream;
 #define HAS_ANALYTIC 1
 #endif
 
+/* PoCL (3.0, the CPU driver) links OpenCL's builtins — floor, fmax, clamp, vload4, dot… — as
+ * calls that LLVM does not inline into the kernel (seen in the compiled eval_btf.so: 18 calls
+ * of floor alone), which costs a call each and keeps the work-item loop from being vectorised.
+ * The decode's hot path therefore uses clang's builtins, which compile to single instructions
+ * (roundss, maxss, sqrtss), and plain element loads. Same values: floor, fmax, fmin, sqrt,
+ * fabs and copysign are exact or correctly rounded either way. */
+#define BTF_FLOOR(x) __builtin_floorf(x)
+#define BTF_FMAX(a, b) __builtin_fmaxf((a), (b))
+#define BTF_FMIN(a, b) __builtin_fminf((a), (b))
+#define BTF_CLAMPF(x, lo, hi) BTF_FMIN(BTF_FMAX((x), (lo)), (hi))
+#define BTF_IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define BTF_IMAX(a, b) ((a) > (b) ? (a) : (b))
+#define BTF_DEG(rad) ((rad) * (180.0f / M_PI_F))
+#define BTF_RAD(deg) ((deg) * (M_PI_F / 180.0f))
+
+inline float2 btf_ld2(Stream p)
+{
+  return (float2)(p[0], p[1]);
+}
+
+inline float3 btf_ld3(Stream p)
+{
+  return (float3)(p[0], p[1], p[2]);
+}
+
+inline float4 btf_ld4(Stream p)
+{
+  return (float4)(p[0], p[1], p[2], p[3]);
+}
+
 inline float btf_mod(float x, float m)
 {
-  return x - m * floor(x / m);
+  return x - m * BTF_FLOOR(x / m);
 }
 
 inline void btf_uniform_index(float x, float step, int max_index, int *i, float *w)
 {
-  int k = clamp((int)(x / step), 0, max_index);
+  int k = BTF_IMIN(BTF_IMAX((int)(x / step), 0), max_index);
   *i = k;
   *w = (x - k * step) / step;
 }
@@ -76,19 +106,19 @@ inline float btf_atan_unit(float a)
  * so that work-items stay in step; (0, 0) gives 0. */
 inline float btf_atan2_deg_xpos(float y, float x)
 {
-  float ay = fabs(y);
-  float hi = fmax(ay, x), lo = fmin(ay, x);
+  float ay = __builtin_fabsf(y);
+  float hi = BTF_FMAX(ay, x), lo = BTF_FMIN(ay, x);
   float a = btf_atan_unit(hi > 0.0f ? lo / hi : 0.0f);
   a = ay > x ? M_PI_2_F - a : a;
-  return copysign(degrees(a), y);
+  return __builtin_copysignf(BTF_DEG(a), y);
 }
 
 /* sin and cos of an angle in degrees: reduced exactly to [-45°, 45°] in degrees, then Taylor
  * polynomials (truncation < 3e-9 there), the quadrant by selects. */
 inline float btf_sincos_deg(float deg, float *c)
 {
-  float k = rint(deg / 90.0f);
-  float x = radians(deg - 90.0f * k);
+  float k = __builtin_rintf(deg / 90.0f);
+  float x = BTF_RAD(deg - 90.0f * k);
   float x2 = x * x;
   float s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f + x2 * (-1.0f / 5040.0f +
                                                                          x2 / 362880.0f))));
@@ -131,6 +161,9 @@ typedef struct {
 /* Luminance and colour (one 2D function at (α, β), already scaled) → RGB. */
 inline float3 mlvq_rgb(Stream I, float lum, float2 cbcr)
 {
+#if defined(MLVQ_HDR) && !MLVQ_HDR /* an LDR material's program: no LogLuv path to step over */
+  return btf_ycbcr_to_rgb(lum, cbcr.x, cbcr.y);
+#endif
   if (ITAB(H_HDR)) {
     return btf_logluv_to_rgb(lum, cbcr.x, cbcr.y);
   }
@@ -140,7 +173,7 @@ inline float3 mlvq_rgb(Stream I, float lum, float2 cbcr)
 /* Everything of a decode that does not depend on the texel: indices and weights of the
  * angles, table offsets. Angles in degrees, theta <= 90, and wi the unit light direction of
  * (theta_i, phi_i). A bilinear lookup computes it once for its four texels. */
-inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
+__attribute__((always_inline)) inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
                           float theta_v, float phi_v)
 {
   MLVQCell c;
@@ -155,27 +188,28 @@ inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float ph
   float cos_pv;
   float sin_pv = btf_sincos_deg(phi_v, &cos_pv);
   float bx = sin_pv * wi.x - cos_pv * wi.y, by = -(cos_pv * wi.x + sin_pv * wi.y);
-  bx = clamp(bx, -1.0f, 1.0f);
+  bx = BTF_CLAMPF(bx, -1.0f, 1.0f);
 
   /* (x, y, wi.z) is wi turned about the normal, a unit vector: cos β = √(y² + z²) without
    * the cancellation of √(1 − x²), and β, α as atan2 stay accurate at grazing light, where the
    * original's asin in float32 loses half the digits (β → ±90°). */
-  float cos_beta = sqrt(by * by + wi.z * wi.z);
+  float cos_beta = __builtin_sqrtf(by * by + wi.z * wi.z);
   float beta = btf_atan2_deg_xpos(bx, cos_beta);
-  float alpha = cos_beta < 1e-3f ? 0.0f : btf_atan2_deg_xpos(by, fmax(wi.z, 0.0f));
+  float alpha = cos_beta < 1e-3f ? 0.0f : btf_atan2_deg_xpos(by, BTF_FMAX(wi.z, 0.0f));
 
   if (ITAB(H_COS_BETA)) { /* samples uniform in sin β: the index straight from x = sin β */
-    c.ib = clamp((int)((bx + 1.0f) * 0.5f * (c.n_beta - 1)), 0, c.n_beta - 2);
-    float2 b = vload2(0, F + ITAB(H_F_BETA) + c.ib);
+    c.ib = BTF_IMIN(BTF_IMAX((int)((bx + 1.0f) * 0.5f * (c.n_beta - 1)), 0), c.n_beta - 2);
+    float2 b = btf_ld2(F + ITAB(H_F_BETA) + c.ib);
     c.wb = (beta - b.x) / (b.y - b.x);
   }
   else {
     btf_uniform_index(beta + 90.0f, 180.0f / (c.n_beta - 1), c.n_beta - 2, &c.ib, &c.wb);
   }
   btf_uniform_index(alpha + 90.0f, 180.0f / (c.n_alpha - 1), c.n_alpha - 2, &c.ia, &c.wa);
-  btf_uniform_index(clamp(theta_v, 0.0f, 90.0f), 90.0f / (c.n_theta - 1), c.n_theta - 2, &c.it,
-                    &c.wt);
-  btf_uniform_index(clamp(view_phi, 0.0f, 360.0f), 360.0f / c.n_phi, c.n_phi - 1, &c.ip, &c.wp);
+  btf_uniform_index(BTF_CLAMPF(theta_v, 0.0f, 90.0f), 90.0f / (c.n_theta - 1), c.n_theta - 2,
+                    &c.it, &c.wt);
+  btf_uniform_index(BTF_CLAMPF(view_phi, 0.0f, 360.0f), 360.0f / c.n_phi, c.n_phi - 1, &c.ip,
+                    &c.wp);
   c.ip1 = c.ip + 1 < c.n_phi ? c.ip + 1 : 0; /* φ wraps: the last slice blends into slice 0 */
   c.hw = mlvq_hermite_weights(c.ib, c.wb, c.n_beta);
   c.pdf2_col = ITAB(H_PDF2_COLOURS);
@@ -217,12 +251,12 @@ inline void mlvq_walk_texel(Stream I, Stream F, MLVQWalk *w, float2 uv)
   int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
   /* floor(frac(u)·width) lies in [0, width] (width when frac rounds up), the offsets in
    * [0, width): two conditional steps wrap it. */
-  int x = btf_wrap((int)floor(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET), width);
-  int y = btf_wrap((int)floor(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET), height);
-  float2 t6 = vload2(y * width + x, F + ITAB(H_F_MLVQ6)); /* (pdf6 scale, slot + 1) */
+  int x = btf_wrap((int)BTF_FLOOR(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET), width);
+  int y = btf_wrap((int)BTF_FLOOR(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET), height);
+  float2 t6 = btf_ld2(F + ITAB(H_F_MLVQ6) + 2 * (y * width + x)); /* (pdf6 scale, slot + 1) */
   /* A texel not stored (slot 0 in the file) decodes slot 0 with weight 0: no branch, so the
    * work-items of a group stay in step. */
-  w->slot6 = max((int)t6.y - 1, 0);
+  w->slot6 = BTF_IMAX((int)t6.y - 1, 0);
   w->scale6 = t6.y >= 1.0f ? t6.x : 0.0f;
 }
 
@@ -230,13 +264,14 @@ inline void mlvq_walk_texel(Stream I, Stream F, MLVQWalk *w, float2 uv)
 inline void mlvq_walk_rows(Stream F, MLVQWalk *w)
 {
   const MLVQCell *c = &w->c;
-  float8 e0 = vload8(0, F + c->f43 + 4 * ((w->slot6 * c->n_phi + c->ip) * c->n_theta + c->it));
-  float8 e1 = vload8(0, F + c->f43 + 4 * ((w->slot6 * c->n_phi + c->ip1) * c->n_theta + c->it));
-  w->scale = (float4)(e0.s0, e0.s4, e1.s0, e1.s4) *
+  Stream r0 = F + c->f43 + 4 * ((w->slot6 * c->n_phi + c->ip) * c->n_theta + c->it);
+  Stream r1 = F + c->f43 + 4 * ((w->slot6 * c->n_phi + c->ip1) * c->n_theta + c->it);
+  float4 e00 = btf_ld4(r0), e01 = btf_ld4(r0 + 4), e10 = btf_ld4(r1), e11 = btf_ld4(r1 + 4);
+  w->scale = (float4)(e00.x, e01.x, e10.x, e11.x) *
              ((float4)(1.0f - c->wp, 1.0f - c->wp, c->wp, c->wp) *
               (float4)(1.0f - c->wt, c->wt, 1.0f - c->wt, c->wt));
-  w->lum_fn = convert_int4((float4)(e0.s1, e0.s5, e1.s1, e1.s5));
-  w->col_fn = convert_int4((float4)(e0.s2, e0.s6, e1.s2, e1.s6));
+  w->lum_fn = (int4)((int)e00.y, (int)e01.y, (int)e10.y, (int)e11.y);
+  w->col_fn = (int4)((int)e00.z, (int)e01.z, (int)e10.z, (int)e11.z);
 }
 
 /* Level 3: per 2D function, (scale, curve) at the α interval's two nodes and its two colour
@@ -246,20 +281,20 @@ inline void mlvq_walk_functions(Stream I, Stream F, MLVQWalk *w)
   const MLVQCell *c = &w->c;
   int4 f2 = c->f2 + 2 * (w->lum_fn * c->n_alpha + c->ia);
   int4 ci = c->pdf2_col + w->col_fn * c->n_alpha + c->ia;
-  w->s[0] = vload4(0, F + f2.s0);
-  w->s[1] = vload4(0, F + f2.s1);
-  w->s[2] = vload4(0, F + f2.s2);
-  w->s[3] = vload4(0, F + f2.s3);
-  w->k[0] = vload2(0, I + ci.s0);
-  w->k[1] = vload2(0, I + ci.s1);
-  w->k[2] = vload2(0, I + ci.s2);
-  w->k[3] = vload2(0, I + ci.s3);
+  w->s[0] = btf_ld4(F + f2.s0);
+  w->s[1] = btf_ld4(F + f2.s1);
+  w->s[2] = btf_ld4(F + f2.s2);
+  w->s[3] = btf_ld4(F + f2.s3);
+  w->k[0] = btf_ld2(I + ci.s0);
+  w->k[1] = btf_ld2(I + ci.s1);
+  w->k[2] = btf_ld2(I + ci.s2);
+  w->k[3] = btf_ld2(I + ci.s3);
 }
 
 /* Level 4: the eight curves at β (one 3-float read each: p[i−1] is read at i = 0 too, with
  * weight 0; the float stream's header precedes every table, so the read stays inside) and the
  * eight (Cb, Cr) pairs at β's two nodes → the raw RGB. */
-inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
+__attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
 {
   const MLVQCell *c = &w->c;
   int pdf1 = c->pdf1 + c->ib - 1, ab = c->fab + 2 * c->ib, nb = c->n_beta;
@@ -269,9 +304,10 @@ inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
   for (int j = 0; j < 4; j++) { /* unrolled: the 16 reads are independent */
     float4 s = w->s[j];
     float2 k = w->k[j];
-    float lum = wa0 * s.x * dot(vload3(0, F + pdf1 + (int)s.y * nb), c->hw) +
-                c->wa * s.z * dot(vload3(0, F + pdf1 + (int)s.w * nb), c->hw);
-    float4 a0 = vload4(0, F + ab + 2 * (int)k.x * nb), a1 = vload4(0, F + ab + 2 * (int)k.y * nb);
+    float3 p0 = btf_ld3(F + pdf1 + (int)s.y * nb) * c->hw;
+    float3 p1 = btf_ld3(F + pdf1 + (int)s.w * nb) * c->hw;
+    float lum = wa0 * s.x * (p0.x + p0.y + p0.z) + c->wa * s.z * (p1.x + p1.y + p1.z);
+    float4 a0 = btf_ld4(F + ab + 2 * (int)k.x * nb), a1 = btf_ld4(F + ab + 2 * (int)k.y * nb);
     float2 cbcr = wa0 * (a0.xy * wb0 + a0.zw * c->wb) + c->wa * (a1.xy * wb0 + a1.zw * c->wb);
     rgb += mlvq_rgb(I, lum, cbcr) * sc[j];
   }
