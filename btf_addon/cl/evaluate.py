@@ -20,8 +20,9 @@ from .programs import build_program
 
 
 class KernelEvaluator:
-    """Valid queries → (M, 3) float64 values by ``eval_btf`` on one device; the BTF's packed
-    tables stay on the device between calls."""
+    """Valid queries → (M, 3) float32 values (what the device computes; the base class
+    clamps them into its float32 output) by ``eval_mlvq`` or ``eval_btf`` on one device; the
+    BTF's packed tables stay on the device between calls."""
 
     def __init__(self, btf: BTF, cl_context: CLContext):
         import pyopencl as cl
@@ -57,9 +58,13 @@ class KernelEvaluator:
         n = len(q.uv)
         out = np.empty((n, 3), dtype=np.float32)
         if n == 0:
-            return out.astype(np.float64)
-        rows = np.column_stack([q.uv, q.theta_i, q.phi_i, q.theta_v, q.phi_v])
-        dirs = np.stack([q.wi, q.wo], axis=1).reshape(-1, 3)
+            return out
+        # written straight into the float32 layouts the kernel reads (no float64 copies)
+        rows = np.empty((n, 6), dtype=np.float32)
+        rows[:, :2], rows[:, 2], rows[:, 3] = q.uv, q.theta_i, q.phi_i
+        rows[:, 4], rows[:, 5] = q.theta_v, q.phi_v
+        dirs = np.empty((n, 2, 3), dtype=np.float32)
+        dirs[:, 0], dirs[:, 1] = q.wi, q.wo
         out_buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
         self.kernel(
             self.ctx.queue,
@@ -72,7 +77,7 @@ class KernelEvaluator:
             out_buf,
         )
         cl.enqueue_copy(self.ctx.queue, out, out_buf)
-        return out.astype(np.float64)
+        return out
 
 
 def mlvq_launch(btf: BTF, device) -> tuple[int, int | None]:

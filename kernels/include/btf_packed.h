@@ -516,13 +516,24 @@ inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi,
   float x1 = btf_mod(x0 + 1.0f, size.x), y1 = btf_mod(y0 + 1.0f, size.y);
   float3 sum = (float3)(0.0f);
 #if HAS_MLVQ
-  if (ITAB(H_CODEC) == CODEC_MLVQ) { /* the four texels share the angles' work */
-    MLVQCell c = mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
+  if (ITAB(H_CODEC) == CODEC_MLVQ) {
+    /* the four texels share the angles' work, and walk the tables level by level together so
+     * that their cache misses overlap (MLVQWalk) */
+    MLVQWalk walk[4];
     for (int k = 0; k < 4; k++) {
+      walk[k].c = k ? walk[0].c : mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
       float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
+      mlvq_walk_texel(I, F, &walk[k], (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y));
+    }
+    for (int k = 0; k < 4; k++) {
+      mlvq_walk_rows(F, &walk[k]);
+    }
+    for (int k = 0; k < 4; k++) {
+      mlvq_walk_functions(I, F, &walk[k]);
+    }
+    for (int k = 0; k < 4; k++) {
       float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
-      float2 centre = (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y);
-      sum += w * (mlvq_texel(I, F, &c, centre) * FTAB(F_VALUE_SCALE));
+      sum += w * (mlvq_walk_rgb(I, F, &walk[k]) * FTAB(F_VALUE_SCALE));
     }
     return sum;
   }
