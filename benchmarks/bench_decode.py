@@ -2,12 +2,13 @@
 
 An evaluation is one decode at one texel. Columns (M evaluations/s, and × numpy measured in the
 same run): the numpy reference (``evaluate_angles``: host sanitising included); the OpenCL
-``eval_btf`` kernel alone (tables and queries already on the device, program cached: enqueue to
-finish); OpenCL end to end (``device_btf(...).evaluate_angles``: host sanitising, transfers);
-the GLSL query shader on the moderngl context (llvmpipe here) end to end. Two query sets:
-``random`` (uniform uv and angles: every evaluation a different texel and angle cell, the
-worst case for caches) and ``coherent`` (as a render issues them: a scan-line grid of uv that
-steps about one texel per query, one light direction, a view direction varying smoothly).
+decode kernel alone (``eval_mlvq``, the one ``device_btf`` launches for MLVQ: tables and queries
+already on the device, program cached: enqueue to finish); OpenCL end to end
+(``device_btf(...).evaluate_angles``: host sanitising, transfers); the GLSL query shader on the
+moderngl context (llvmpipe here) end to end. Two query sets: ``random`` (uniform uv and angles:
+every evaluation a different texel and angle cell, the worst case for caches) and ``coherent``
+(as a render issues them: a scan-line grid of uv that steps about one texel per query, one
+light direction, a view direction varying smoothly).
 Filtered lookups (bilinear: four evaluations each) are a row of their own, counted in lookups/s.
 
 Usage: ``python benchmarks/bench_decode.py [N]`` (default 10⁶ queries; the scalar decoder of the
@@ -42,7 +43,8 @@ def coherent_queries(n: int, width: int, height: int) -> np.ndarray:
 
 
 class KernelOnly:
-    """``eval_btf`` (or ``eval_btf_filtered``) on device-resident queries: enqueue → finish."""
+    """The evaluator's kernel (``eval_mlvq`` for MLVQ materials, batched on a CPU) or
+    ``eval_btf_filtered`` on device-resident queries: enqueue → finish."""
 
     def __init__(self, btf, ctx, q: np.ndarray, filtered: bool = False):
         import pyopencl as cl
@@ -52,7 +54,10 @@ class KernelOnly:
 
         ev = KernelEvaluator(btf, ctx)
         self.cl, self.ctx, self.n = cl, ctx, len(q)
-        self.kernel = cl.Kernel(ev.program, "eval_btf_filtered" if filtered else "eval_btf")
+        if filtered:
+            self.kernel, self.size = cl.Kernel(ev.program, "eval_btf_filtered"), ((self.n,), None)
+        else:
+            self.kernel, self.size = ev.kernel, ev.launch_size(self.n)
         wi = directions_from_angles_deg(q[:, 2], q[:, 3])
         wo = directions_from_angles_deg(q[:, 4], q[:, 5])
         self.args = [
@@ -66,7 +71,7 @@ class KernelOnly:
         self()  # first launch: PoCL specialises the work-group function
 
     def __call__(self) -> None:
-        self.kernel(self.ctx.queue, (self.n,), None, *self.args)
+        self.kernel(self.ctx.queue, *self.size, *self.args)
         self.ctx.queue.finish()
 
     def result(self) -> np.ndarray:

@@ -20,6 +20,40 @@ __kernel void eval_btf(__global const float *q, __global const float *dirs, cons
   vstore3(value, gid, out);
 }
 
+/* eval_btf for an MLVQ material, MLVQ_BATCH queries per work-item (rows gid·B … gid·B + B − 1):
+ * each level of the table walk (btf_packed.h MLVQWalk) runs for the whole batch before the
+ * next, so the cache misses of B decodes overlap; the same values as eval_btf. */
+#ifndef MLVQ_BATCH
+#define MLVQ_BATCH 1
+#endif
+__kernel void eval_mlvq(__global const float *q, __global const float *dirs, const int n,
+                        __global const float *I, __global const float *F, __global float *out)
+{
+  int first = get_global_id(0) * MLVQ_BATCH;
+  MLVQWalk w[MLVQ_BATCH];
+  for (int j = 0; j < MLVQ_BATCH; j++) {
+    int row = BTF_IMIN(first + j, n - 1); /* a short last batch repeats its last row */
+    __global const float *r = q + 6 * row;
+    w[j].c = mlvq_cell(I, F, btf_ld3(dirs + 6 * row), r[2], r[3], r[4], r[5]);
+    mlvq_walk_texel(I, F, &w[j], btf_ld2(r));
+  }
+  for (int j = 0; j < MLVQ_BATCH; j++) {
+    mlvq_walk_rows(F, &w[j]);
+  }
+  for (int j = 0; j < MLVQ_BATCH; j++) {
+    mlvq_walk_functions(I, F, &w[j]);
+  }
+  float scale = FTAB(F_VALUE_SCALE);
+  for (int j = 0; j < MLVQ_BATCH; j++) {
+    float3 value = mlvq_walk_rgb(I, F, &w[j]) * scale;
+    if (first + j < n) { /* plain stores: PoCL's vstore3 is a call too */
+      out[3 * (first + j)] = value.x;
+      out[3 * (first + j) + 1] = value.y;
+      out[3 * (first + j) + 2] = value.z;
+    }
+  }
+}
+
 /* The bilinear filtered lookup (btf_filtered, FILTER_LINEAR: four decodes) at the same rows:
  * what benchmarks/bench_decode.py times as "filtered lookups". */
 __kernel void eval_btf_filtered(__global const float *q, __global const float *dirs,

@@ -1,8 +1,8 @@
 /* BTFbase MLVQ decoding in GLSL: the same steps as btf_addon/core/mlvq.py (the reference, which
- * documents each level) and kernels/include/btf_mlvq.h. Needs btf_tables_lib, btf_colour_lib. */
+ * documents each level) and kernels/include/btf_packed.h. Needs btf_tables_lib, btf_colour_lib. */
 
-/* Laid out as kernels/include/btf_packed.h reads it: the interleaved exact copies f_mlvq*
- * (btf_addon/core/packed.py mlvq_fast_tables), the Hermite step's weights and the colour
+/* Laid out as kernels/include/btf_packed.h reads it: the interleaved tables f_mlvq*
+ * (btf_addon/core/packed.py mlvq_fast_tables; f_mlvq43 resolves pdf4 → pdf3), the Hermite step's weights and the colour
  * curves' β weights once per decode; β and α by atan from the turned light vector (accurate at
  * grazing light, where asin in float32 is not). */
 
@@ -33,7 +33,7 @@ vec2 mlvq_cbcr(int c, int ib, float wb, int n_beta)
   return vec2(ftab(at), ftab(at + 1)) * (1.0 - wb) + vec2(ftab(at + 2), ftab(at + 3)) * wb;
 }
 
-/* One 2D function at (α, β) from its f_mlvq3 entry (luminance fn, colour fn). */
+/* One 2D function at (α, β) from its f_mlvq43 entry (luminance fn, colour fn). */
 vec3 mlvq_pdf2(int lum_fn, int col_fn, int ia, float wa, int ib, float wb, vec3 hw, int n_beta,
                int n_alpha)
 {
@@ -102,14 +102,14 @@ vec3 mlvq_decode(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v
   vec3 rgb = vec3(0.0);
   for (int k = 0; k < 2; k++) {
     int phi = (k == 1) ? (ip + 1) % n_phi : ip;
-    int f4 = itab(H_F_MLVQ4) + 2 * (slot6 * n_phi + phi); /* (pdf4 scale, pdf3 row) */
-    float s4 = ftab(f4) * ((k == 1) ? wp : 1.0 - wp);
+    float wk = (k == 1) ? wp : 1.0 - wp;
     for (int j = 0; j < 2; j++) {
-      int f3 = itab(H_F_MLVQ3) + 4 * (int(ftab(f4 + 1)) * n_theta + it + j);
-      float s3 = ftab(f3) * ((j == 1) ? wt : 1.0 - wt);
-      rgb += mlvq_pdf2(int(ftab(f3 + 1)), int(ftab(f3 + 2)), ia, wa, ib, wb, hw, n_beta,
+      /* f_mlvq43: (s4·s3, luminance fn, colour fn, 0) per (slot, φ, θ), pdf4 → pdf3 resolved */
+      int f43 = itab(H_F_MLVQ43) + 4 * ((slot6 * n_phi + phi) * n_theta + it + j);
+      float w43 = ftab(f43) * (wk * ((j == 1) ? wt : 1.0 - wt));
+      rgb += mlvq_pdf2(int(ftab(f43 + 1)), int(ftab(f43 + 2)), ia, wa, ib, wb, hw, n_beta,
                        n_alpha) *
-             (s4 * s3);
+             w43;
     }
   }
   rgb *= ftab(f6);

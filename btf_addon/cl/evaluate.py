@@ -4,7 +4,9 @@
 (core/model.py ``DelegatingBTF``): the base class still sanitises and chunks the queries on the
 host (NaN/Inf, below-horizon and zero-length rows never reach the device); ``KernelEvaluator``
 evaluates the valid rows from the packed table layout that the GLSL back end uses too
-(btf_addon/core/packed.py).
+(btf_addon/core/packed.py). MLVQ materials go through ``eval_mlvq``, which on a CPU device
+decodes a batch of queries per work-item level by level so their cache misses overlap
+(docs/accuracy.md "BTFbase decoding").
 """
 
 from __future__ import annotations
@@ -18,8 +20,9 @@ from .programs import build_program
 
 
 class KernelEvaluator:
-    """Valid queries → (M, 3) float64 values by ``eval_btf`` on one device; the BTF's packed
-    tables stay on the device between calls."""
+    """Valid queries → (M, 3) float32 values (what the device computes; the base class
+    clamps them into its float32 output) by ``eval_mlvq`` or ``eval_btf`` on one device; the
+    BTF's packed tables stay on the device between calls."""
 
     def __init__(self, btf: BTF, cl_context: CLContext):
         import pyopencl as cl
@@ -27,8 +30,11 @@ class KernelEvaluator:
         packed = pack(btf)  # raises UnsupportedBTFError for procedural codecs
         self.ctx = cl_context
         self._cl = cl
-        self.program = build_program(cl_context.context, cl_context.device, "btf_eval.cl", {})
-        self.kernel = cl.Kernel(self.program, "eval_btf")  # retrieved once, reused per chunk
+        self.batch, self.local_size = mlvq_launch(btf, cl_context.device)
+        defines = {"MLVQ_BATCH": self.batch} if self.batch else {}
+        self.program = build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
+        # retrieved once, reused per chunk
+        self.kernel = cl.Kernel(self.program, "eval_mlvq" if self.batch else "eval_btf")
         self._ints = self._buffer(packed.ints.ravel())
         self._floats = self._buffer(packed.floats.ravel())
 
@@ -40,19 +46,29 @@ class KernelEvaluator:
             hostbuf=np.ascontiguousarray(array, dtype=np.float32),
         )
 
+    def launch_size(self, n: int) -> tuple[tuple[int], tuple[int] | None]:
+        """(global size, local size) for n queries."""
+        items = -(-n // self.batch) if self.batch else n
+        if self.local_size is None:
+            return (items,), None
+        return (-(-items // self.local_size) * self.local_size,), (self.local_size,)
+
     def __call__(self, q: Queries) -> np.ndarray:
         cl = self._cl
         n = len(q.uv)
         out = np.empty((n, 3), dtype=np.float32)
         if n == 0:
-            return out.astype(np.float64)
-        rows = np.column_stack([q.uv, q.theta_i, q.phi_i, q.theta_v, q.phi_v])
-        dirs = np.stack([q.wi, q.wo], axis=1).reshape(-1, 3)
+            return out
+        # written straight into the float32 layouts the kernel reads (no float64 copies)
+        rows = np.empty((n, 6), dtype=np.float32)
+        rows[:, :2], rows[:, 2], rows[:, 3] = q.uv, q.theta_i, q.phi_i
+        rows[:, 4], rows[:, 5] = q.theta_v, q.phi_v
+        dirs = np.empty((n, 2, 3), dtype=np.float32)
+        dirs[:, 0], dirs[:, 1] = q.wi, q.wo
         out_buf = cl.Buffer(self.ctx.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
         self.kernel(
             self.ctx.queue,
-            (n,),
-            None,
+            *self.launch_size(n),
             self._buffer(rows),
             self._buffer(dirs),
             np.int32(n),
@@ -61,7 +77,29 @@ class KernelEvaluator:
             out_buf,
         )
         cl.enqueue_copy(self.ctx.queue, out, out_buf)
-        return out.astype(np.float64)
+        return out
+
+
+def mlvq_launch(btf: BTF, device) -> tuple[int, int | None]:
+    """(queries per work-item, work-group size) of ``eval_mlvq`` for an MLVQ material on this
+    device; (0, None) for other codecs (``eval_btf``). A CPU decodes MLVQ_BATCH_CPU queries per
+    work-item in groups of 16: PoCL keeps a group's private batches on one thread's stack, and
+    its own choice of a large group overflowed it at 8 queries per work-item. A GPU hides the
+    misses with its many work-items instead: one query each, its own group size."""
+    import pyopencl as cl
+
+    while isinstance(btf, DelegatingBTF):
+        btf = btf.btf
+    if btf.meta.codec != "mlvq":
+        return 0, None
+    if device.type & cl.device_type.CPU:
+        return MLVQ_BATCH_CPU, 16
+    return 1, None
+
+
+#: Queries per work-item of eval_mlvq on a CPU: 8 was the best of 1, 2, 4, 8, 16 in the A/B runs of
+#: docs/accuracy.md (wallpaper random: 2× one query per work-item).
+MLVQ_BATCH_CPU = 8
 
 
 def device_btf(btf: BTF, cl_context: CLContext) -> DelegatingBTF:

@@ -93,6 +93,8 @@ INT_HEADER: tuple[str, ...] = (
     "f_importance",
     "importance_grid",
     "importance_views",
+    # MLVQ, flattened pdf4 → pdf3 (mlvq_fast_tables): float-stream offset
+    "f_mlvq43",
 )
 
 #: Float header slots in order as (name, number of floats); device code names the first float
@@ -343,6 +345,15 @@ def mlvq_fast_tables(t: dict[str, np.ndarray], out: TableWriter) -> None:
     idx2 = t["pdf3_slices"].ravel()
     fns = t["pdf2_indices"][idx2]
     f3 = pairs(t["pdf3_scale"], fns[:, 0], fns[:, 1], np.zeros(len(idx2)))
+    out.float_table(np.zeros(-out._float_cursor % 4, f32))  # f_mlvq43 rows 16-byte aligned
+    # f_mlvq43: per (pdf6 slot, φ, θ) the pdf4 → pdf3 chain resolved, (s4·s3, luminance fn,
+    # colour fn, 0) — float4; θ and θ+1 are one 8-float read. The product is rounded once
+    # from float64 (the reference multiplies the two float32 scales in float64).
+    rows4 = t["pdf4_slices"].ravel()
+    s43 = t["pdf4_scale"].ravel()[:, None].astype(np.float64) * t["pdf3_scale"][rows4]
+    fns43 = t["pdf2_indices"][t["pdf3_slices"][rows4]]  # (slots·φ, θ, 2)
+    f43 = pairs(s43, fns43[..., 0], fns43[..., 1], np.zeros(s43.size))
+    out.set(f_mlvq43=out.float_table(f43))
     out.float_table(np.zeros(-out._float_cursor % 4, f32))  # f_mlvq3 rows 16-byte aligned
     out.set(
         f_mlvq3=out.float_table(f3),

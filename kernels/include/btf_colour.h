@@ -8,7 +8,9 @@ inline float3 btf_ycbcr_to_rgb(float y, float cb, float cr)
   float3 rgb = (float3)(1.1643828f * y + 1.5960273f * cr - 222.921f,
                         1.1643828f * y - 0.39176172f * cb - 0.81296875f * cr + 135.576f,
                         1.1643828f * y + 2.0172344f * cb - 276.836f);
-  return fmax(rgb, (float3)(0.0f));
+  /* per component: PoCL's vector fmax is an out-of-line call (btf_packed.h) */
+  return (float3)(__builtin_fmaxf(rgb.x, 0.0f), __builtin_fmaxf(rgb.y, 0.0f),
+                  __builtin_fmaxf(rgb.z, 0.0f));
 }
 
 inline float btf_srgb_encode(float c)

@@ -34,26 +34,103 @@ typedef __global const float *Stream;
 #define HAS_ANALYTIC 1
 #endif
 
+/* PoCL (3.0, the CPU driver) links OpenCL's builtins — floor, fmax, clamp, vload4, dot… — as
+ * calls that LLVM does not inline into the kernel (seen in the compiled eval_btf.so: 18 calls
+ * of floor alone), which costs a call each and keeps the work-item loop from being vectorised.
+ * The decode's hot path therefore uses clang's builtins, which compile to single instructions
+ * (roundss, maxss, sqrtss), and plain element loads. Same values: floor, fmax, fmin, sqrt,
+ * fabs and copysign are exact or correctly rounded either way. */
+#define BTF_FLOOR(x) __builtin_floorf(x)
+#define BTF_FMAX(a, b) __builtin_fmaxf((a), (b))
+#define BTF_FMIN(a, b) __builtin_fminf((a), (b))
+#define BTF_CLAMPF(x, lo, hi) BTF_FMIN(BTF_FMAX((x), (lo)), (hi))
+#define BTF_IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define BTF_IMAX(a, b) ((a) > (b) ? (a) : (b))
+#define BTF_DEG(rad) ((rad) * (180.0f / M_PI_F))
+#define BTF_RAD(deg) ((deg) * (M_PI_F / 180.0f))
+
+inline float2 btf_ld2(Stream p)
+{
+  return (float2)(p[0], p[1]);
+}
+
+inline float3 btf_ld3(Stream p)
+{
+  return (float3)(p[0], p[1], p[2]);
+}
+
+inline float4 btf_ld4(Stream p)
+{
+  return (float4)(p[0], p[1], p[2], p[3]);
+}
+
 inline float btf_mod(float x, float m)
 {
-  return x - m * floor(x / m);
+  return x - m * BTF_FLOOR(x / m);
 }
 
 inline void btf_uniform_index(float x, float step, int max_index, int *i, float *w)
 {
-  int k = clamp((int)(x / step), 0, max_index);
+  int k = BTF_IMIN(BTF_IMAX((int)(x / step), 0), max_index);
   *i = k;
   *w = (x - k * step) / step;
 }
 
 /* --- MLVQ --------------------------------------------------------------------------------- */
-/* Where the time goes (docs/accuracy.md "Decode throughput"): a decode is 4 (φ, θ) corners ×
- * 2 α nodes = 8 luminance curves and 8 colour curves, each behind a chain of 4–6 dependent
- * table reads, and the light angles. So the per-decode constants are computed once (the
- * Hermite step's three weights, the colour curves' two, every table offset), each curve is
- * one 3-float read, and the light's (β, α) comes from the direction vector with one sincos
- * instead of four trigonometric calls. Same arithmetic as btf_addon/core/mlvq.py up to float
- * rounding (tests/kernels/test_decode_speed.py states the tolerance). */
+/* Where the time goes (docs/accuracy.md "BTFbase decoding"): a decode is 4 (φ, θ) corners ×
+ * 2 α nodes = 8 luminance curves and 8 colour curves, each behind a chain of dependent table
+ * reads, and the light angles. So the chain is flattened (f_mlvq43: texel → (slot, φ, θ) entry
+ * → (α) curve → β samples), the per-decode constants are computed once (the Hermite step's
+ * three weights, every table offset), each curve is one 3-float read, and the angles use
+ * branch-free polynomials instead of PoCL's scalar libm (one sincos, two atan2). Same
+ * arithmetic as btf_addon/core/mlvq.py up to float rounding (tests/kernels/test_decode_speed.py
+ * states the tolerance). */
+
+/* atan(a) for a in [0, 1] in radians: odd minimax-fitted polynomial, |error| < 1.1e-7 rad
+ * (float32's own rounding of atan near 1 is 6e-8). */
+inline float btf_atan_unit(float a)
+{
+  float s = a * a;
+  float p = -0.004054556135088205f;
+  p = p * s + 0.02186293713748455f;
+  p = p * s - 0.05591233819723129f;
+  p = p * s + 0.09642201662063599f;
+  p = p * s - 0.13908633589744568f;
+  p = p * s + 0.19946567714214325f;
+  p = p * s - 0.33329862356185913f;
+  p = p * s + 0.9999993443489075f;
+  return a * p;
+}
+
+/* atan2(y, x) in degrees for x >= 0 (the two angles of the decode): in [-90, 90], branch-free
+ * so that work-items stay in step; (0, 0) gives 0. */
+inline float btf_atan2_deg_xpos(float y, float x)
+{
+  float ay = __builtin_fabsf(y);
+  float hi = BTF_FMAX(ay, x), lo = BTF_FMIN(ay, x);
+  float a = btf_atan_unit(hi > 0.0f ? lo / hi : 0.0f);
+  a = ay > x ? M_PI_2_F - a : a;
+  return __builtin_copysignf(BTF_DEG(a), y);
+}
+
+/* sin and cos of an angle in degrees: reduced exactly to [-45°, 45°] in degrees, then Taylor
+ * polynomials (truncation < 3e-9 there), the quadrant by selects. */
+inline float btf_sincos_deg(float deg, float *c)
+{
+  float k = __builtin_rintf(deg / 90.0f);
+  float x = BTF_RAD(deg - 90.0f * k);
+  float x2 = x * x;
+  float s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f + x2 * (-1.0f / 5040.0f +
+                                                                         x2 / 362880.0f))));
+  float co = 1.0f + x2 * (-0.5f + x2 * (1.0f / 24.0f + x2 * (-1.0f / 720.0f +
+                                                             x2 * (1.0f / 40320.0f -
+                                                                   x2 / 3628800.0f))));
+  int q = ((int)k) & 3;
+  float sq = (q == 0) ? s : (q == 1) ? co : (q == 2) ? -s : -co;
+  float cq = (q == 0) ? co : (q == 1) ? -s : (q == 2) ? -co : s;
+  *c = cq;
+  return sq;
+}
 
 /* The Hermite step of mlvq_pdf1 (core/mlvq.py _pdf1) as three weights on p[i-1], p[i], p[i+1]:
  * left tangent 0.5·(p1 − p[i−1]) (p1 − p0 at i = 0), right 0.5·(p1 − p0) (p1 − p0 at the last
@@ -66,42 +143,27 @@ inline float3 mlvq_hermite_weights(int i, float w, int n_beta)
   float h11 = t3 - t2;
   float h10 = h11 - t2 + w;
   float gm = (i == n_beta - 2) ? 1.0f : 0.5f;
-  if (i == 0) { /* m0 = p1 − p0 */
-    return (float3)(0.0f, h00 - h10 - gm * h11, h01 + h10 + gm * h11);
-  }
-  return (float3)(-0.5f * h10, h00 - gm * h11, h01 + 0.5f * h10 + gm * h11);
+  /* m0 = p1 − p0 at i = 0 (edge), else 0.5·(p1 − p[i−1]): a select, not a branch */
+  float3 inner = (float3)(-0.5f * h10, h00 - gm * h11, h01 + 0.5f * h10 + gm * h11);
+  float3 edge = (float3)(0.0f, h00 - h10 - gm * h11, h01 + h10 + gm * h11);
+  return i == 0 ? edge : inner;
 }
 
 typedef struct {
   int n_beta, n_alpha, n_theta, n_phi;
-  int ib, ia, it, ip;
+  int ib, ia, it, ip, ip1;
   float wa, wt, wp, wb;
   float3 hw; /* mlvq_hermite_weights(ib, wb) */
   /* table offsets, read once */
-  int pdf2_col, pdf1, f2, fab;
+  int pdf2_col, pdf1, f2, fab, f43;
 } MLVQCell;
 
-/* A curve s of the pdf1 table at the cell's β: one 3-float read (p[i−1] is read at i = 0 too,
- * with weight 0: the float stream's header precedes every table, so the read stays inside). */
-inline float mlvq_curve(Stream F, const MLVQCell *c, int s)
+/* Luminance and colour (one 2D function at (α, β), already scaled) → RGB. */
+inline float3 mlvq_rgb(Stream I, float lum, float2 cbcr)
 {
-  return dot(vload3(0, F + c->pdf1 + s * c->n_beta + c->ib - 1), c->hw);
-}
-
-/* One 2D function at (α, β) from its f_mlvq3 entry e = (scale, luminance fn, colour fn, 0):
- * luminance and colour, then YCbCr/LogLuv → RGB. */
-inline float3 mlvq_pdf2(Stream I, Stream F, const MLVQCell *c, float4 e)
-{
-  int li = (int)e.y * c->n_alpha + c->ia;
-  int ci = c->pdf2_col + (int)e.z * c->n_alpha + c->ia;
-  float2 f0 = vload2(li, F + c->f2), f1 = vload2(li + 1, F + c->f2); /* (scale, curve) */
-  float lum = (1.0f - c->wa) * f0.x * mlvq_curve(F, c, (int)f0.y) +
-              c->wa * f1.x * mlvq_curve(F, c, (int)f1.y);
-  /* (Cb, Cr) at the interval's two β nodes, one read per colour slice */
-  float4 a0 = vload4(0, F + c->fab + 2 * (ITAB(ci) * c->n_beta + c->ib));
-  float4 a1 = vload4(0, F + c->fab + 2 * (ITAB(ci + 1) * c->n_beta + c->ib));
-  float2 cbcr = (1.0f - c->wa) * (a0.xy * (1.0f - c->wb) + a0.zw * c->wb) +
-                c->wa * (a1.xy * (1.0f - c->wb) + a1.zw * c->wb);
+#if defined(MLVQ_HDR) && !MLVQ_HDR /* an LDR material's program: no LogLuv path to step over */
+  return btf_ycbcr_to_rgb(lum, cbcr.x, cbcr.y);
+#endif
   if (ITAB(H_HDR)) {
     return btf_logluv_to_rgb(lum, cbcr.x, cbcr.y);
   }
@@ -111,7 +173,7 @@ inline float3 mlvq_pdf2(Stream I, Stream F, const MLVQCell *c, float4 e)
 /* Everything of a decode that does not depend on the texel: indices and weights of the
  * angles, table offsets. Angles in degrees, theta <= 90, and wi the unit light direction of
  * (theta_i, phi_i). A bilinear lookup computes it once for its four texels. */
-inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
+__attribute__((always_inline)) inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
                           float theta_v, float phi_v)
 {
   MLVQCell c;
@@ -124,69 +186,147 @@ inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float ph
    * y = sin φ'·sin θi: in terms of wi = (sin θi cos φi, sin θi sin φi, cos θi) that is
    * x = sin φv·wi.x − cos φv·wi.y, y = −(cos φv·wi.x + sin φv·wi.y). */
   float cos_pv;
-  float sin_pv = sincos(radians(phi_v), &cos_pv);
+  float sin_pv = btf_sincos_deg(phi_v, &cos_pv);
   float bx = sin_pv * wi.x - cos_pv * wi.y, by = -(cos_pv * wi.x + sin_pv * wi.y);
-  bx = clamp(bx, -1.0f, 1.0f);
+  bx = BTF_CLAMPF(bx, -1.0f, 1.0f);
 
   /* (x, y, wi.z) is wi turned about the normal, a unit vector: cos β = √(y² + z²) without
    * the cancellation of √(1 − x²), and β, α as atan2 stay accurate at grazing light, where the
    * original's asin in float32 loses half the digits (β → ±90°). */
-  float cos_beta = sqrt(by * by + wi.z * wi.z);
-  float beta = degrees(atan2(bx, cos_beta));
-  float alpha = cos_beta < 1e-3f ? 0.0f : degrees(atan2(by, fmax(wi.z, 0.0f)));
-  alpha = clamp(alpha, -90.0f, 90.0f);
+  float cos_beta = __builtin_sqrtf(by * by + wi.z * wi.z);
+  float beta = btf_atan2_deg_xpos(bx, cos_beta);
+  float alpha = cos_beta < 1e-3f ? 0.0f : btf_atan2_deg_xpos(by, BTF_FMAX(wi.z, 0.0f));
 
   if (ITAB(H_COS_BETA)) { /* samples uniform in sin β: the index straight from x = sin β */
-    c.ib = clamp((int)((bx + 1.0f) * 0.5f * (c.n_beta - 1)), 0, c.n_beta - 2);
-    float b0 = FTAB(ITAB(H_F_BETA) + c.ib), b1 = FTAB(ITAB(H_F_BETA) + c.ib + 1);
-    c.wb = (beta - b0) / (b1 - b0);
+    c.ib = BTF_IMIN(BTF_IMAX((int)((bx + 1.0f) * 0.5f * (c.n_beta - 1)), 0), c.n_beta - 2);
+    float2 b = btf_ld2(F + ITAB(H_F_BETA) + c.ib);
+    c.wb = (beta - b.x) / (b.y - b.x);
   }
   else {
     btf_uniform_index(beta + 90.0f, 180.0f / (c.n_beta - 1), c.n_beta - 2, &c.ib, &c.wb);
   }
   btf_uniform_index(alpha + 90.0f, 180.0f / (c.n_alpha - 1), c.n_alpha - 2, &c.ia, &c.wa);
-  btf_uniform_index(clamp(theta_v, 0.0f, 90.0f), 90.0f / (c.n_theta - 1), c.n_theta - 2, &c.it,
-                    &c.wt);
-  btf_uniform_index(clamp(view_phi, 0.0f, 360.0f), 360.0f / c.n_phi, c.n_phi - 1, &c.ip, &c.wp);
+  btf_uniform_index(BTF_CLAMPF(theta_v, 0.0f, 90.0f), 90.0f / (c.n_theta - 1), c.n_theta - 2,
+                    &c.it, &c.wt);
+  btf_uniform_index(BTF_CLAMPF(view_phi, 0.0f, 360.0f), 360.0f / c.n_phi, c.n_phi - 1, &c.ip,
+                    &c.wp);
+  c.ip1 = c.ip + 1 < c.n_phi ? c.ip + 1 : 0; /* φ wraps: the last slice blends into slice 0 */
   c.hw = mlvq_hermite_weights(c.ib, c.wb, c.n_beta);
   c.pdf2_col = ITAB(H_PDF2_COLOURS);
   c.pdf1 = ITAB(H_F_PDF1);
   c.f2 = ITAB(H_F_MLVQ2);
   c.fab = ITAB(H_F_MLVQ_AB);
+  c.f43 = ITAB(H_F_MLVQ43);
   return c;
+}
+
+/* i in [-n, 2n) → i mod n without integer division (texel wrapping with the row/column
+ * offsets of the material). */
+inline int btf_wrap(int i, int n)
+{
+  i = i < 0 ? i + n : i;
+  return i >= n ? i - n : i;
+}
+
+/* A decode's table walk, level by level: (1) the texel; (2) the two (slot, φ) rows of
+ * (θ, θ+1) entries; (3) the four 2D functions' (scale, curve) pairs and colour slices; (4) the
+ * eight curves and eight colour pairs. Each level's reads are issued together before any is
+ * used, so its cache misses overlap instead of following one another: a decode is bound by
+ * these misses, not by its arithmetic (docs/accuracy.md). mlvq_texel runs the levels for one
+ * texel; eval_mlvq (kernels/btf_eval.cl) runs each level for a batch of queries before the
+ * next, so the misses of several queries overlap too. */
+typedef struct {
+  MLVQCell c;
+  int slot6;
+  float scale6;
+  float4 scale;     /* per 2D function: s4·s3 × its (φ, θ) weight */
+  int4 lum_fn, col_fn;
+  float4 s[4];      /* per 2D function: (scale, curve) at α's two nodes */
+  float2 k[4];      /* per 2D function: colour slices at α's two nodes */
+} MLVQWalk;
+
+/* Level 1: the texel holding uv → pdf6 (scale, slot). */
+inline void mlvq_walk_texel(Stream I, Stream F, MLVQWalk *w, float2 uv)
+{
+  int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
+  /* floor(frac(u)·width) lies in [0, width] (width when frac rounds up), the offsets in
+   * [0, width): two conditional steps wrap it. */
+  int x = btf_wrap((int)BTF_FLOOR(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET), width);
+  int y = btf_wrap((int)BTF_FLOOR(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET), height);
+  float2 t6 = btf_ld2(F + ITAB(H_F_MLVQ6) + 2 * (y * width + x)); /* (pdf6 scale, slot + 1) */
+  /* A texel not stored (slot 0 in the file) decodes slot 0 with weight 0: no branch, so the
+   * work-items of a group stay in step. */
+  w->slot6 = BTF_IMAX((int)t6.y - 1, 0);
+  w->scale6 = t6.y >= 1.0f ? t6.x : 0.0f;
+}
+
+/* Level 2: (s4·s3, luminance fn, colour fn, 0) at θ and θ+1 for φ and φ+1: two 8-float reads */
+inline void mlvq_walk_rows(Stream F, MLVQWalk *w)
+{
+  const MLVQCell *c = &w->c;
+  Stream r0 = F + c->f43 + 4 * ((w->slot6 * c->n_phi + c->ip) * c->n_theta + c->it);
+  Stream r1 = F + c->f43 + 4 * ((w->slot6 * c->n_phi + c->ip1) * c->n_theta + c->it);
+  float4 e00 = btf_ld4(r0), e01 = btf_ld4(r0 + 4), e10 = btf_ld4(r1), e11 = btf_ld4(r1 + 4);
+  w->scale = (float4)(e00.x, e01.x, e10.x, e11.x) *
+             ((float4)(1.0f - c->wp, 1.0f - c->wp, c->wp, c->wp) *
+              (float4)(1.0f - c->wt, c->wt, 1.0f - c->wt, c->wt));
+  w->lum_fn = (int4)((int)e00.y, (int)e01.y, (int)e10.y, (int)e11.y);
+  w->col_fn = (int4)((int)e00.z, (int)e01.z, (int)e10.z, (int)e11.z);
+}
+
+/* Level 3: per 2D function, (scale, curve) at the α interval's two nodes and its two colour
+ * slices. */
+inline void mlvq_walk_functions(Stream I, Stream F, MLVQWalk *w)
+{
+  const MLVQCell *c = &w->c;
+  int4 f2 = c->f2 + 2 * (w->lum_fn * c->n_alpha + c->ia);
+  int4 ci = c->pdf2_col + w->col_fn * c->n_alpha + c->ia;
+  w->s[0] = btf_ld4(F + f2.s0);
+  w->s[1] = btf_ld4(F + f2.s1);
+  w->s[2] = btf_ld4(F + f2.s2);
+  w->s[3] = btf_ld4(F + f2.s3);
+  w->k[0] = btf_ld2(I + ci.s0);
+  w->k[1] = btf_ld2(I + ci.s1);
+  w->k[2] = btf_ld2(I + ci.s2);
+  w->k[3] = btf_ld2(I + ci.s3);
+}
+
+/* Level 4: the eight curves at β (one 3-float read each: p[i−1] is read at i = 0 too, with
+ * weight 0; the float stream's header precedes every table, so the read stays inside) and the
+ * eight (Cb, Cr) pairs at β's two nodes → the raw RGB. */
+__attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
+{
+  const MLVQCell *c = &w->c;
+  int pdf1 = c->pdf1 + c->ib - 1, ab = c->fab + 2 * c->ib, nb = c->n_beta;
+  float wa0 = 1.0f - c->wa, wb0 = 1.0f - c->wb;
+  float3 rgb = (float3)(0.0f);
+  float sc[4] = {w->scale.s0, w->scale.s1, w->scale.s2, w->scale.s3};
+  for (int j = 0; j < 4; j++) { /* unrolled: the 16 reads are independent */
+    float4 s = w->s[j];
+    float2 k = w->k[j];
+    float3 p0 = btf_ld3(F + pdf1 + (int)s.y * nb) * c->hw;
+    float3 p1 = btf_ld3(F + pdf1 + (int)s.w * nb) * c->hw;
+    float lum = wa0 * s.x * (p0.x + p0.y + p0.z) + c->wa * s.z * (p1.x + p1.y + p1.z);
+    float4 a0 = btf_ld4(F + ab + 2 * (int)k.x * nb), a1 = btf_ld4(F + ab + 2 * (int)k.y * nb);
+    float2 cbcr = wa0 * (a0.xy * wb0 + a0.zw * c->wb) + c->wa * (a1.xy * wb0 + a1.zw * c->wb);
+    rgb += mlvq_rgb(I, lum, cbcr) * sc[j];
+  }
+  rgb *= w->scale6;
+  if (ITAB(H_HDR)) {
+    rgb /= FTAB(F_HDR_VALUE);
+  }
+  return rgb;
 }
 
 /* The original decoder's raw RGB at the texel holding uv, for the cell's angles. */
 inline float3 mlvq_texel(Stream I, Stream F, const MLVQCell *cp, float2 uv)
 {
-  MLVQCell c = *cp;
-  int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT);
-  int x = ((int)floor(btf_mod(uv.x, 1.0f) * width) - ITAB(H_COLS_OFFSET)) % width;
-  int y = ((int)floor(btf_mod(uv.y, 1.0f) * height) - ITAB(H_ROWS_OFFSET)) % height;
-  x = (x + width) % width;
-  y = (y + height) % height;
-  int texel = y * width + x;
-  float2 t6 = vload2(texel, F + ITAB(H_F_MLVQ6)); /* (pdf6 scale, slot + 1) */
-  int slot6 = (int)t6.y - 1;
-  if (slot6 < 0) {
-    return (float3)(0.0f);
-  }
-  int f4 = ITAB(H_F_MLVQ4), f3 = ITAB(H_F_MLVQ3);
-  float3 rgb = (float3)(0.0f);
-  for (int k = 0; k < 2; k++) {
-    int phi = k ? (c.ip + 1) % c.n_phi : c.ip;
-    float2 t4 = vload2(slot6 * c.n_phi + phi, F + f4); /* (pdf4 scale, pdf3 row) */
-    float s4 = t4.x * (k ? c.wp : 1.0f - c.wp);
-    int i3 = (int)t4.y * c.n_theta + c.it;
-    float4 e0 = vload4(i3, F + f3), e1 = vload4(i3 + 1, F + f3);
-    rgb += mlvq_pdf2(I, F, &c, e0) * (s4 * (e0.x * (1.0f - c.wt)));
-    rgb += mlvq_pdf2(I, F, &c, e1) * (s4 * (e1.x * c.wt));
-  }
-  rgb *= t6.x;
-  if (ITAB(H_HDR)) {
-    rgb /= FTAB(F_HDR_VALUE);
-  }
-  return rgb;
+  MLVQWalk w;
+  w.c = *cp;
+  mlvq_walk_texel(I, F, &w, uv);
+  mlvq_walk_rows(F, &w);
+  mlvq_walk_functions(I, F, &w);
+  return mlvq_walk_rgb(I, F, &w);
 }
 
 /* Angles in degrees, theta <= 90, and wi the unit light direction of (theta_i, phi_i): the
@@ -376,13 +516,24 @@ inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi,
   float x1 = btf_mod(x0 + 1.0f, size.x), y1 = btf_mod(y0 + 1.0f, size.y);
   float3 sum = (float3)(0.0f);
 #if HAS_MLVQ
-  if (ITAB(H_CODEC) == CODEC_MLVQ) { /* the four texels share the angles' work */
-    MLVQCell c = mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
+  if (ITAB(H_CODEC) == CODEC_MLVQ) {
+    /* the four texels share the angles' work, and walk the tables level by level together so
+     * that their cache misses overlap (MLVQWalk) */
+    MLVQWalk walk[4];
     for (int k = 0; k < 4; k++) {
+      walk[k].c = k ? walk[0].c : mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
       float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
+      mlvq_walk_texel(I, F, &walk[k], (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y));
+    }
+    for (int k = 0; k < 4; k++) {
+      mlvq_walk_rows(F, &walk[k]);
+    }
+    for (int k = 0; k < 4; k++) {
+      mlvq_walk_functions(I, F, &walk[k]);
+    }
+    for (int k = 0; k < 4; k++) {
       float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
-      float2 centre = (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y);
-      sum += w * (mlvq_texel(I, F, &c, centre) * FTAB(F_VALUE_SCALE));
+      sum += w * (mlvq_walk_rgb(I, F, &walk[k]) * FTAB(F_VALUE_SCALE));
     }
     return sum;
   }

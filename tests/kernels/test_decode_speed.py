@@ -1,12 +1,14 @@
 """The fast MLVQ decode (kernels/include/btf_packed.h): its interleaved tables are exact copies
-of the originals, and the device decode agrees with the numpy reference where float32 is
-hardest (grazing light, β → ±90°; the view pole)."""
+of the originals (the flattened pdf4 → pdf3 scale: one rounding), its polynomial angle maths is
+accurate, the batched kernel (eval_mlvq) gives eval_btf's values bit for bit, and the device
+decode agrees with the numpy reference where float32 is hardest (grazing light, β → ±90°; the
+view pole)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import shared_material
+from helpers import random_queries, shared_material
 
 from btf_addon.core.mlvq import MLVQBTF
 from btf_addon.core.packed import INT_SLOT, pack
@@ -42,6 +44,17 @@ def test_fast_tables_are_exact_copies(alu):
     np.testing.assert_array_equal(f2[:, 1], t["pdf2_slices"].ravel())
     ab = at("f_mlvq_ab", t["index_ab"].size, 2)
     np.testing.assert_array_equal(ab, t["ab_colors"][t["index_ab"].ravel()])
+    n_slots, n_phi = t["pdf4_slices"].shape
+    n_theta = t["pdf3_slices"].shape[1]
+    f43 = at("f_mlvq43", n_slots * n_phi * n_theta, 4).reshape(n_slots, n_phi, n_theta, 4)
+    assert int(ints[INT_SLOT["f_mlvq43"]]) % 4 == 0
+    rows = t["pdf4_slices"]  # (slot, φ) → pdf3 row
+    np.testing.assert_array_equal(f43[..., 1:3], t["pdf2_indices"][t["pdf3_slices"][rows]])
+    np.testing.assert_array_equal(f43[..., 3], 0.0)
+    # s4·s3 rounded once to float32 from the float64 product of the two float32 scales (what
+    # the reference multiplies): within half an ulp, 2^-24 relative.
+    want = t["pdf4_scale"][..., None].astype(np.float64) * t["pdf3_scale"][rows]
+    np.testing.assert_allclose(f43[..., 0], want, rtol=2.0**-24, atol=0)
 
 
 def test_grazing_light_and_view_pole_match_the_reference(alu, rng):
@@ -70,3 +83,81 @@ def test_grazing_light_and_view_pole_match_the_reference(alu, rng):
     # a few ulps even at β = ±90° (the original's asin is not), so the test's general bound
     # holds here too: 2e-4 of the largest value absolute, 2e-3 relative.
     np.testing.assert_allclose(got, want, rtol=2e-3, atol=2e-4 * float(want.max()))
+
+
+@pytest.fixture(scope="module")
+def cl_context():
+    from btf_addon.cl.context import OpenCLUnavailableError, create_context
+
+    try:
+        return create_context()
+    except OpenCLUnavailableError as exc:
+        pytest.skip(str(exc))
+
+
+def test_polynomial_angles_match_libm(cl_context):
+    """btf_atan2_deg_xpos and btf_sincos_deg (branch-free polynomials) against float64 numpy
+    over their whole ranges, poles and quadrant edges included."""
+    import pyopencl as cl
+
+    from btf_addon.cl.programs import KERNELS_DIR, build_defines, expand_includes
+
+    source = "\n".join(
+        [
+            "__kernel void angles(__global const float *a, __global const float *b,",
+            "                     __global float *out) {",
+            "  int i = get_global_id(0); float c;",
+            "  out[3 * i] = btf_atan2_deg_xpos(a[i], b[i]);",
+            "  out[3 * i + 1] = btf_sincos_deg(a[i] * 400.0f, &c);",
+            "  out[3 * i + 2] = c;",
+            "}",
+        ]
+    )
+    # the real program's source with a test kernel appended, built with the real defines
+    text = expand_includes(KERNELS_DIR / "btf_eval.cl") + "\n" + source
+    options = [f"-D{k}={v}" for k, v in sorted(build_defines({}).items())]
+    prg = cl.Program(cl_context.context, text).build(options)
+    y = np.concatenate([np.linspace(-1, 1, 20001), [0.0, 1.0, -1.0, 1e-8, -1e-8]])
+    x = np.concatenate([np.sqrt(1 - np.linspace(-1, 1, 20001) ** 2), [0.0, 0.0, 0.0, 1.0, 1.0]])
+    a, b = y.astype(np.float32), x.astype(np.float32)
+    out = np.empty((len(a), 3), np.float32)
+    mf = cl.mem_flags
+    bufs = [
+        cl.Buffer(cl_context.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=v) for v in (a, b)
+    ]
+    out_buf = cl.Buffer(cl_context.context, mf.WRITE_ONLY, out.nbytes)
+    prg.angles(cl_context.queue, (len(a),), None, *bufs, out_buf)
+    cl.enqueue_copy(cl_context.queue, out, out_buf)
+    a64, b64 = a.astype(np.float64), b.astype(np.float64)
+    # atan: the polynomial's 1.1e-7 rad plus float32 rounding of a value up to 90°: 2e-5°.
+    np.testing.assert_allclose(out[:, 0], np.degrees(np.arctan2(a64, b64)), rtol=0, atol=2e-5)
+    # sin, cos of angles up to ±400°: reduction in degrees is exact to float32 rounding of the
+    # angle (2.4e-5° at 400° = 4e-7 rad), the polynomials < 3e-9: 1e-6 absolute.
+    rad = np.radians(a64 * 400.0)
+    np.testing.assert_allclose(out[:, 1], np.sin(rad), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(out[:, 2], np.cos(rad), rtol=0, atol=1e-6)
+
+
+def test_batched_kernel_equals_eval_btf(alu, cl_context, rng):
+    """eval_mlvq (MLVQ_BATCH queries per work-item, levels interleaved) gives eval_btf's values
+    bit for bit, with a count that is no multiple of the batch or the group."""
+    import pyopencl as cl
+
+    from btf_addon.cl.evaluate import KernelEvaluator
+    from btf_addon.core.angles import directions_from_angles_deg
+
+    n = 1001
+    q = random_queries(rng, n)
+    wi = directions_from_angles_deg(q[:, 2], q[:, 3])
+    wo = directions_from_angles_deg(q[:, 4], q[:, 5])
+    ev = KernelEvaluator(alu, cl_context)
+    assert ev.batch >= 1  # an MLVQ material goes through eval_mlvq
+    args = [ev._buffer(q), ev._buffer(np.stack([wi, wo], axis=1).reshape(-1, 3)), np.int32(n)]
+    outs = []
+    for name, size in (("eval_btf", ((n,), None)), ("eval_mlvq", ev.launch_size(n))):
+        out_buf = cl.Buffer(cl_context.context, cl.mem_flags.WRITE_ONLY, n * 12)
+        cl.Kernel(ev.program, name)(cl_context.queue, *size, *args, ev._ints, ev._floats, out_buf)
+        out = np.empty((n, 3), np.float32)
+        cl.enqueue_copy(cl_context.queue, out, out_buf)
+        outs.append(out)
+    np.testing.assert_array_equal(outs[1], outs[0])
