@@ -102,6 +102,7 @@ def render(engine, depsgraph) -> None:
         renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
         # None: the environment's choice (BTF_FIXED_LAUNCHES), as the command line.
         renderer.fixed_launch_split = settings.fixed_launch_split or None
+        renderer.importance_sampling = settings.btf_importance_sampling
         for note in renderer.notes:
             engine.report({"WARNING"}, note)
     except OpenCLCompileError as exc:

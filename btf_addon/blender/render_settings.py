@@ -94,6 +94,13 @@ class BTFRenderSettings(PropertyGroup):
         description="Virtual Lights final render: rays per pixel spread over the pixel filter, "
         "the N lights split between them (about the cost of one ray per pixel)",
     )
+    btf_importance_sampling: BoolProperty(
+        name="BTF Importance Sampling",
+        default=True,
+        description="Sampled final render: continue paths from measured BTFs by a table of "
+        "their own values (built once per material, about a second) instead of cosine "
+        "sampling alone; less noise on glossy materials, about 10 % more time per sample",
+    )
     fixed_launch_split: BoolProperty(
         name="Fixed Launch Split",
         default=False,

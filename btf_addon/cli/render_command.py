@@ -113,6 +113,14 @@ def add_parser(sub) -> None:
         "between runs on one device (also BTF_FIXED_LAUNCHES=1)",
     )
     p.add_argument(
+        "--no-btf-importance",
+        dest="btf_importance_sampling",
+        action="store_const",
+        const=False,  # not given: None, the scene's setting
+        help="Sampled mode: cosine sampling only for measured BTFs, without their sampling "
+        "tables (less time per sample, more noise on glossy materials)",
+    )
+    p.add_argument(
         "--filter",
         type=_pixel_filter,
         default=False,  # not given: the scene's film (None is "none": pixel centres)
@@ -260,6 +268,7 @@ def overrides(args) -> dict:
         "max_bounces": args.bounces,
         "seed": args.seed,
         "fixed_launch_split": args.fixed_launch_split,
+        "btf_importance_sampling": args.btf_importance_sampling,
     }
 
 
@@ -325,6 +334,7 @@ F12_ONLY = {
     "samples": "--samples",
     "bounces": "--bounces",
     "device": "--device",
+    "btf_importance_sampling": "--no-btf-importance",
 }
 
 
