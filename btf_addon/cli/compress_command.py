@@ -11,7 +11,6 @@ no file (and no temporary) behind.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -41,8 +40,7 @@ def add_parser(sub) -> None:
     p.add_argument("--codec", choices=["mlvq", "svd"], default="mlvq", help="target codec")
     p.add_argument(
         "--rank",
-        type=_ranks,
-        default=SVDSettings().ranks,
+        default=",".join(str(k) for k in SVDSettings().ranks),
         help="svd: components kept, one for every channel or three (N,N,N); default 16,8,8",
     )
     p.add_argument(
@@ -90,13 +88,13 @@ def estimate(width: int, height: int) -> memory.Estimate:
 
 
 def _ranks(text: str) -> tuple[int, ...]:
-    """``N`` or ``N,N,N`` → ranks (argparse type; SVDSettings checks the values)."""
+    """``N`` or ``N,N,N`` → ranks (SVDSettings checks their values)."""
     try:
         ranks = tuple(int(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"rank {text!r}: one integer or three, N,N,N") from None
+        ranks = ()
     if len(ranks) not in (1, 3):
-        raise argparse.ArgumentTypeError(f"rank {text!r}: one integer or three, N,N,N")
+        raise BTFError(f"--rank {text!r}: give one integer or three, N,N,N")
     return ranks * 3 if len(ranks) == 1 else ranks
 
 
@@ -172,7 +170,7 @@ def report_json(src, encoded, stats, settings: MLVQSettings, args) -> dict:
 
 
 def _compress_svd(args, src, out: Path) -> int:
-    settings = SVDSettings(ranks=args.rank, colour_space=args.colour_space)
+    settings = SVDSettings(ranks=_ranks(args.rank), colour_space=args.colour_space)
     n_views, n_lights = src.meta.n_views or 81, src.meta.n_lights or 81
     n_tex = src.meta.width * src.meta.height
     memory.require(
