@@ -49,6 +49,13 @@ def add_parser(sub) -> None:
         default=SVDSettings().colour_space,
         help="svd: factorise R, G, B or decorrelated Y, U, V (the codec's colour models 0/1)",
     )
+    p.add_argument(
+        "--factor-bits",
+        type=int,
+        default=0,
+        help="svd: quantise each factor column to this many bits (0: float32); the report's "
+        "packed ratio counts them so",
+    )
     d = MLVQSettings()
     for flag, field, what in (
         ("--k1", "k1", "P1 luminance slices over beta"),
@@ -170,7 +177,9 @@ def report_json(src, encoded, stats, settings: MLVQSettings, args) -> dict:
 
 
 def _compress_svd(args, src, out: Path) -> int:
-    settings = SVDSettings(ranks=_ranks(args.rank), colour_space=args.colour_space)
+    settings = SVDSettings(
+        ranks=_ranks(args.rank), colour_space=args.colour_space, factor_bits=args.factor_bits
+    )
     n_views, n_lights = src.meta.n_views or 81, src.meta.n_lights or 81
     n_tex = src.meta.width * src.meta.height
     memory.require(
@@ -202,7 +211,7 @@ def svd_report_json(src, encoded, stats, settings: SVDSettings, args) -> dict:
     """The MLVQ report's fields for an svd encoding: sizes against raw 8-bit (81 × 81 × W × H
     × 3 bytes, as quantreport.txt) and float32 data, PSNR and SSIM at the measured pairs (the
     encoding's grids), ranks and truncation error, encode time."""
-    size = svd_sizes(encoded)
+    size = svd_sizes(encoded, settings.factor_bits)
     report = {
         "input": str(args.src),
         "codec": "svd",
@@ -218,6 +227,8 @@ def svd_report_json(src, encoded, stats, settings: SVDSettings, args) -> dict:
         "stored_bytes": size.stored_bytes,
         "stored_ratio": round(size.stored_ratio, 3),
         "float32_ratio": round(4 * size.stored_ratio, 3),
+        "packed_bytes": size.packed_bytes,
+        "packed_ratio": round(size.packed_ratio, 3),
     }
     if not args.no_psnr:
         grids = {"view_grid": encoded.p.view_grid, "light_grid": encoded.p.light_grid}

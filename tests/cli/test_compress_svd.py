@@ -64,6 +64,16 @@ def test_one_rank_for_all_channels(source, tmp_path, capsys):
     assert load_btf(out).ranks == (3, 3, 3)
 
 
+def test_factor_bits_give_the_packed_ratio(source, tmp_path, capsys):
+    out = tmp_path / "q.btfm"
+    args = ["compress", str(source), "-o", str(out), "--codec", "svd", "--rank", "2"]
+    assert main([*args, "--factor-bits", "8"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["settings"]["factor_bits"] == 8
+    # 8 of 32 bits per factor plus a min/max per column: just under 4× the stored ratio.
+    assert 3.9 * report["stored_ratio"] < report["packed_ratio"] < 4 * report["stored_ratio"]
+
+
 @pytest.mark.parametrize(
     "rank, message", [("0", "rank must be"), ("2,2", "one integer or three"), ("x", "three")]
 )

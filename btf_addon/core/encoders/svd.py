@@ -73,6 +73,10 @@ class SVDSettings:
     #: block for the texel Gram): they bound the working set beside the Gram matrices.
     block_texels: int = 1024
     block_pairs: int = 512
+    #: Quantise every factor column (of U and of S·V) uniformly between its min and max to
+    #: 2^factor_bits levels, as the original MLVQ tool's mode 0 does its scales; 0 = keep
+    #: float32. The .btfm stores float32 either way; ``sizes`` counts the packed bits.
+    factor_bits: int = 0
 
     def __post_init__(self) -> None:
         ranks = self.ranks
@@ -90,6 +94,8 @@ class SVDSettings:
             )
         if self.block_texels < 1 or self.block_pairs < 1:
             raise BTFFormatError("SVD encoder: block sizes must be at least 1")
+        if not (self.factor_bits == 0 or 2 <= self.factor_bits <= 16):
+            raise BTFFormatError("SVD encoder: factor_bits must be 0 (float32) or 2..16")
 
 
 @dataclass
@@ -342,6 +348,9 @@ def encode_svd(
         light_phi=src.light_phi,
         **({"tile_size_mm": tuple(tile)} if tile is not None else {}),
     )
+    if s.factor_bits:
+        u = [quantise_columns(a, s.factor_bits) for a in u]
+        svt = [quantise_columns(a, s.factor_bits) for a in svt]
     out = SVDBTF(params, u, svt)
     stats = SVDStats(
         seconds=time.perf_counter() - start,
@@ -367,13 +376,26 @@ def _check_finite(rgb: np.ndarray, idx: np.ndarray, pair_side: bool, btf: BTF) -
     )
 
 
-def sizes(btf: SVDBTF) -> SizeReport:
+def sizes(btf: SVDBTF, factor_bits: int = 0) -> SizeReport:
     """Stored bytes (the float32 U and S·V tables the .btfm holds) against raw 8-bit data as
-    the original tool's quantreport.txt counts it (81 × 81 × W × H × 3 bytes); the svd codec
-    has no quantised form, so packed = stored."""
-    stored = sum(int(a.nbytes) for a in btf.tables().values())
+    the original tool's quantreport.txt counts it (81 × 81 × W × H × 3 bytes). Packed: what
+    the factors take at ``factor_bits`` bits each plus a float32 min and max per column (the
+    original's "compressed quantized" figure); = stored when 0 (float32)."""
+    tables = btf.tables().values()
+    stored = sum(int(a.nbytes) for a in tables)
     raw = 81 * 81 * btf.meta.width * btf.meta.height * 3
-    return SizeReport(raw, stored, stored)
+    if not factor_bits:
+        return SizeReport(raw, stored, stored)
+    bits = sum(a.size * factor_bits + a.shape[1] * 64 for a in tables)
+    return SizeReport(raw, stored, math.ceil(bits / 8))
+
+
+def quantise_columns(a: np.ndarray, bits: int) -> np.ndarray:
+    """(N, K) → the same with each column rounded to 2^bits uniform levels between its min
+    and max (a constant column is kept as it is)."""
+    lo, hi = a.min(axis=0), a.max(axis=0)
+    step = np.where(hi > lo, (hi - lo) / (2**bits - 1), 1.0)
+    return np.round((a - lo) / step) * step + lo
 
 
 def truncate(btf: SVDBTF, ranks: tuple[int, int, int]) -> SVDBTF:
