@@ -14,7 +14,9 @@ at every texel (synthetic) or 256 seeded texels (real), computed from the input'
 the factor tables (``encoders.svd.measured_psnr``: ``metrics.psnr``'s number, tested equal,
 without 2 × 1.7 M numpy decodes per row). SSIM: ``metrics.ssim`` (32 seeded
 pairs, the top-left 64 × 64 texels, 7 × 7 windows). Ratio: raw 8-bit = 81 × 81 × W × H × 3
-bytes as the original tool's quantreport.txt, against the float32 tables the .btfm stores.
+bytes as the original tool's quantreport.txt, against the float32 tables the .btfm stores
+("stored") and against 8-bit factors with a float32 min/max per column ("8-bit packed", what
+``--factor-bits 8`` gives; the original's "compressed quantized" figure, 1002 for alu).
 For a BTFbase material the input is the decoded original material, not the raw UBO2003 images.
 
 Usage: python benchmarks/bench_compress_svd.py [--real alu wallpaper] [--no-synthetic]
@@ -31,8 +33,16 @@ from common import SHARED_BTFBASE, table
 from btf_addon.core.analytic import GGXBTF
 from btf_addon.core.dense import DenseBTF, tabulate
 from btf_addon.core.encoders import metrics
-from btf_addon.core.encoders.svd import SVDSettings, encode_svd, measured_psnr, sizes, truncate
+from btf_addon.core.encoders.svd import (
+    SVDSettings,
+    encode_svd,
+    measured_psnr,
+    quantise_columns,
+    sizes,
+    truncate,
+)
 from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.svd import SVDBTF
 
 HEADERS = [
     "input",
@@ -40,6 +50,8 @@ HEADERS = [
     "ranks",
     "stored ratio",
     "PSNR dB",
+    "8-bit packed ratio",
+    "8-bit PSNR dB",
     "SSIM",
     "encode s",
     "decode Mq/s",
@@ -72,7 +84,7 @@ def decode_rate(btf, n: int = 100_000) -> float:
     return n / (time.perf_counter() - t0) / 1e6
 
 
-def rows_for(name: str, src, colour: str, ranks_list, texels: int) -> list[list]:
+def rows_for(name: str, src, colour: str, ranks_list, texels: int, time_low: bool = True):
     top = ranks_list[-1]
     enc, stats = encode_svd(src, SVDSettings(ranks=top, colour_space=colour))
     print(f"{name}: encode at {top} in {stats.seconds:.1f} s ({stats.gram_side} Gram)", flush=True)
@@ -80,6 +92,8 @@ def rows_for(name: str, src, colour: str, ranks_list, texels: int) -> list[list]
     out = []
     for ranks in ranks_list:
         e = truncate(enc, ranks)
+        # --factor-bits 8 quantises each column after the fit: the same as quantising here.
+        e8 = SVDBTF(e.p, *([quantise_columns(a, 8) for a in f] for f in (e.u, e.sv)))
         out.append(
             [
                 name,
@@ -87,12 +101,16 @@ def rows_for(name: str, src, colour: str, ranks_list, texels: int) -> list[list]
                 "/".join(str(k) for k in e.ranks),
                 sizes(e).stored_ratio,
                 measured_psnr(src, e, subset),
+                sizes(e8, 8).packed_ratio,
+                measured_psnr(src, e8, subset),
                 metrics.ssim(src, e),
                 stats.seconds,
                 decode_rate(e),
             ]
         )
         print(table(HEADERS, out[-1:]), flush=True)
+    if not time_low:
+        return out
     low = ranks_list[0]
     t0 = time.perf_counter()
     encode_svd(src, SVDSettings(ranks=low, colour_space=colour))
@@ -116,7 +134,7 @@ def main(argv: list[str] | None = None) -> str:
             print(f"skipping {name}: {folder} not found")
             continue
         src = MLVQBTF.from_directory(folder)
-        rows += rows_for(f"{name} (UBO2003 grid)", src, "yuv", RANKS, 256)
+        rows += rows_for(f"{name} (UBO2003 grid)", src, "yuv", RANKS, 256, name != "wallpaper")
     return table(HEADERS, rows)
 
 
