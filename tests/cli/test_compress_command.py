@@ -47,6 +47,7 @@ def test_compress_writes_a_material_and_reports_its_numbers(source, tmp_path, ca
     src = load_btf(source)
     again = metrics.psnr(src, enc, metrics.texel_subset(4, 4, report["psnr_texels"]))
     assert report["psnr_db"] == pytest.approx(again, abs=1e-3)
+    assert report["ssim"] == pytest.approx(metrics.ssim(src, enc), abs=1e-5)
     assert report["psnr_db"] >= 29.0  # measured 30.8 dB (tests/core/test_encoder_mlvq.py)
 
 

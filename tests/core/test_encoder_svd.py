@@ -267,3 +267,21 @@ def test_factor_bits_quantise_each_column_and_count_the_packed_size(source):
     )
     # 8-bit factors: a step of 1/255 of each column's range; measured 0.1 dB here.
     assert 0.0 <= loss < 1.0, loss
+
+
+def test_ssim_is_one_when_identical_and_drops_with_texture_noise(wide):
+    """metrics.ssim: 1 for the input against itself; lower when each texel is scaled by
+    seeded noise (the texture's structure changes); a 1 × 1 tile compares means only."""
+    assert metrics.ssim(wide, wide, n_pairs=8, **_grids(wide)) == pytest.approx(1.0, abs=1e-12)
+    noise = 1.0 + 0.3 * np.random.default_rng(5).standard_normal((16, 16, 1))
+    noisy = DenseBTF(np.maximum(wide.data * noise, 0.0), wide.view_grid, wide.light_grid)
+    value = metrics.ssim(wide, noisy, n_pairs=8, **_grids(wide))
+    assert 0.0 < value < 0.95, value
+    one = DenseBTF(wide.data[:, :, :1, :1], wide.view_grid, wide.light_grid)
+    dim = DenseBTF(wide.data[:, :, :1, :1] * 0.5, wide.view_grid, wide.light_grid)
+    assert metrics.ssim(one, one, **_grids(wide)) == pytest.approx(1.0, abs=1e-12)
+    assert metrics.ssim(one, dim, **_grids(wide)) < 1.0
+
+
+def _grids(btf: DenseBTF) -> dict:
+    return {"view_grid": btf.view_grid, "light_grid": btf.light_grid}
