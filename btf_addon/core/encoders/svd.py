@@ -22,10 +22,13 @@ block and eigendecomposed (float64):
 * otherwise (alu: 4096 ≤ 6561, tiny test inputs): G_c = Σ Bᵀ·B (texels × texels) over pair
   blocks; SV_c = V·S from its eigenpairs; the second pass gives U_c[block] = B·V / S.
 
-Memory bound: 3·n² float64 Gram matrices (n = min(pairs, texels)), one block of
-pairs × ``block_texels`` (or ``block_pairs`` × texels) × 3 float64, and the factors — never
-the whole BTF. Wallpaper: 3 · 6561² · 8 B = 1.03 GB plus a 6561 × 1024 × 3 block (161 MB) and
-``eigh``'s workspace (one more n² matrix): about 1.6 GB. ``memory_bound`` computes it.
+Memory bound (``memory_bound``), never the whole BTF: while streaming, 3·n² float64 Gram
+matrices (n = min(pairs, texels)) and one block of pairs × ``block_texels`` (or
+``block_pairs`` × texels) × 3 float64 in three copies (samples, colour transform, channel
+planes); while eigendecomposing, the Grams, the eigenvectors and LAPACK's workspace (about
+2 n²): 6 n² float64 in all; plus the factors (float64 while built, float32 kept). Wallpaper:
+6 · 6561² · 8 B = 2.07 GB at the eigendecomposition (the streaming passes: 1.03 GB of Grams +
+3 × 161 MB of blocks), plus the MLVQ sampler's per-row table (6561 × 783 × 3 float64, 123 MB).
 
 The result equals ``svd_build.factorise`` (the in-memory SVD) up to rounding: eigenvalues are
 s², so components whose s is below ~1e-7 of the largest lose relative precision, far below
@@ -236,14 +239,15 @@ def samples_of(btf: BTF) -> _Samples:
 
 
 def memory_bound(n_pairs: int, n_texels: int, s: SVDSettings = SVDSettings()) -> int:
-    """Peak bytes of ``encode_svd`` beside the input: the three Gram matrices, one more for
-    eigh, one block in float64 (and its channel copy), the float32 factors."""
+    """Peak bytes of ``encode_svd`` beside the input and its sampler (module docstring): the
+    larger of the streaming passes (three Gram matrices, three float64 copies of one block) and
+    the eigendecomposition (6 n²), plus the factors (float64 and float32)."""
     n = min(n_pairs, n_texels)
     block = (
         n_pairs * min(s.block_texels, n_texels) if n_texels > n_pairs else s.block_pairs * n_texels
     )
-    factors = (n_pairs + n_texels) * sum(min(k, n) for k in s.ranks) * 4
-    return 4 * n * n * 8 + 2 * block * 3 * 8 + factors
+    factors = (n_pairs + n_texels) * sum(min(k, n) for k in s.ranks) * 12
+    return max(3 * n * n * 8 + 3 * block * 3 * 8, 6 * n * n * 8) + factors
 
 
 # --- the encoder -------------------------------------------------------------------------------
