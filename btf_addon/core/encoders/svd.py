@@ -303,7 +303,8 @@ def encode_svd(
         lam, vec = np.linalg.eigh(gram[c])
         gram[c] = None  # released before the next channel's eigh: one n² workspace at a time
         k = ranks[c]
-        lam, vec = np.maximum(lam[::-1][:k], 0.0), vec[:, ::-1][:, :k]
+        # Contiguous copy: a reversed view would make every later product skip BLAS.
+        lam, vec = np.maximum(lam[::-1][:k], 0.0), np.ascontiguousarray(vec[:, ::-1][:, :k])
         errors.append(float(np.sqrt(max(total - lam.sum(), 0.0) / total)) if total > 0 else 0.0)
         sv = np.sqrt(lam)
         vectors.append(vec)
