@@ -8,6 +8,7 @@ import bench_aa
 import bench_accuracy
 import bench_bridge
 import bench_btf_importance
+import bench_compress_svd
 import bench_decode
 import bench_envmap
 import bench_final_render
@@ -37,6 +38,7 @@ if __name__ == "__main__":
         bench_btf_importance,
         bench_wiimote,
         bench_formats,
+        bench_compress_svd,  # synthetic only; --real alu wallpaper by hand
         bench_accuracy,  # last: it rewrites its section of docs/accuracy.md
     ):
         print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")

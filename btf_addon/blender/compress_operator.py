@@ -1,11 +1,13 @@
 """Compress BTF (File › Export is not the place: it writes a material, not the scene):
 ``bpy.ops.btf.compress(filepath=SRC, output=OUT.btfm, ...)`` encodes any BTF the add-on
-reads to our own MLVQ (core/encoders/mlvq.py).
+reads to our own MLVQ (core/encoders/mlvq.py) or, with ``codec="SVD"``, to the ``svd`` codec
+at ``rank`` components per channel in RGB or YUV (core/encoders/svd.py).
 
 The encode runs on a worker thread (bpy-free: it reads only the loaded BTF and writes only the
 ``Job``); a modal timer shows its progress in the status bar; Esc cancels between k-means
-steps. The output is written atomically after a finished encode, so a cancel leaves no file.
-Run from a script (no window), it encodes before returning.
+steps (SVD: between texel or direction blocks and between channels). The output is written
+atomically after a finished encode, so a cancel leaves no file. Run from a script (no window),
+it encodes before returning.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import logging
 import threading
 from pathlib import Path
 
-from bpy.props import IntProperty, StringProperty
+from bpy.props import EnumProperty, IntProperty, StringProperty
 from bpy.types import Operator
 
 from ..cl.encoder_assign import opencl_assign_or_none
@@ -22,6 +24,8 @@ from ..core.codecs import load_btf
 from ..core.container import SUFFIX, write_container
 from ..core.encoders import metrics
 from ..core.encoders.mlvq import MLVQSettings, encode_mlvq
+from ..core.encoders.svd import SVDSettings, encode_svd
+from ..core.encoders.svd import sizes as svd_sizes
 from ..core.errors import BTFError
 from .background_job import BackgroundJobModal
 
@@ -35,7 +39,7 @@ class CancelledError(Exception):
 class Job:
     """One encode on a worker thread; the modal timer reads ``fraction``/``text``."""
 
-    def __init__(self, src: str, out: Path, settings: MLVQSettings):
+    def __init__(self, src: str, out: Path, settings: MLVQSettings | SVDSettings):
         self.src, self.out, self.settings = src, out, settings
         self.cancel = threading.Event()
         self.done = threading.Event()
@@ -52,6 +56,16 @@ class Job:
     def _work(self) -> None:
         try:
             btf = load_btf(self.src)
+            if isinstance(self.settings, SVDSettings):
+                encoded, stats = encode_svd(btf, self.settings, self._progress)
+                write_container(self.out, encoded)
+                ratio = svd_sizes(encoded).stored_ratio
+                ranks = "/".join(str(k) for k in stats.ranks)
+                self.summary = (
+                    f"{self.out.name}: svd rank {ranks}, ratio {ratio:.0f}:1 against 8-bit "
+                    f"data, {stats.seconds:.1f} s"
+                )
+                return
             assign = opencl_assign_or_none()  # a GPU's OpenCL step, else numpy
             encoded, stats = encode_mlvq(btf, self.settings, self._progress, assign=assign)
             write_container(self.out, encoded)
@@ -72,14 +86,33 @@ class Job:
 
 
 class BTF_OT_compress(BackgroundJobModal, Operator):
-    """Compress a BTF (BTFbase folder or .btfm, any codec) to MLVQ in a .btfm file"""
+    """Compress a BTF (BTFbase folder or .btfm, any codec) to MLVQ or SVD in a .btfm file"""
 
     bl_idname = "btf.compress"
-    bl_label = "Compress BTF to MLVQ"
+    bl_label = "Compress BTF"
     bl_options = {"REGISTER"}
 
     filepath: StringProperty(name="Input", subtype="FILE_PATH")
     output: StringProperty(name="Output", subtype="FILE_PATH")
+    codec: EnumProperty(
+        name="Codec",
+        items=(
+            ("MLVQ", "MLVQ", "Multi-level vector quantisation (BTFbase's codec)", 0),
+            ("SVD", "SVD", "Truncated SVD per colour channel (UBO2014's DFMF)", 1),
+        ),
+        default="MLVQ",
+    )
+    rank: IntProperty(
+        name="Rank", description="SVD: components kept per channel", default=16, min=1, max=4096
+    )
+    colour_space: EnumProperty(
+        name="Colour Space",
+        items=(
+            ("YUV", "YUV", "SVD of decorrelated luminance and chrominance", 0),
+            ("RGB", "RGB", "SVD of R, G and B", 1),
+        ),
+        default="YUV",
+    )
     k1: IntProperty(name="P1 Slices", default=MLVQSettings.k1, min=1)
     k2: IntProperty(name="2D Functions", default=MLVQSettings.k2, min=1)
     k3: IntProperty(name="P3 Rows", default=MLVQSettings.k3, min=1)
@@ -92,15 +125,20 @@ class BTF_OT_compress(BackgroundJobModal, Operator):
         try:
             if not self.filepath:
                 raise BTFError("choose the BTF to compress")
-            out = Path(self.output or Path(self.filepath).with_suffix(".mlvq" + SUFFIX))
+            kind = self.codec.lower()
+            out = Path(self.output or Path(self.filepath).with_suffix(f".{kind}{SUFFIX}"))
             out = out if out.suffix else out.with_suffix(SUFFIX)
-            settings = MLVQSettings(
-                k1=self.k1,
-                k2=self.k2,
-                k3=self.k3,
-                k4=self.k4,
-                scale_bits=self.scale_bits,
-                seed=self.seed,
+            settings = (
+                SVDSettings(ranks=self.rank, colour_space=self.colour_space.lower())
+                if self.codec == "SVD"
+                else MLVQSettings(
+                    k1=self.k1,
+                    k2=self.k2,
+                    k3=self.k3,
+                    k4=self.k4,
+                    scale_bits=self.scale_bits,
+                    seed=self.seed,
+                )
             )
         except BTFError as exc:
             self.report({"ERROR"}, str(exc))

@@ -47,6 +47,7 @@ def test_compress_writes_a_material_and_reports_its_numbers(source, tmp_path, ca
     src = load_btf(source)
     again = metrics.psnr(src, enc, metrics.texel_subset(4, 4, report["psnr_texels"]))
     assert report["psnr_db"] == pytest.approx(again, abs=1e-3)
+    assert report["ssim"] == pytest.approx(metrics.ssim(src, enc), abs=1e-5)
     assert report["psnr_db"] >= 29.0  # measured 30.8 dB (tests/core/test_encoder_mlvq.py)
 
 
@@ -99,3 +100,17 @@ def test_train_texels_knob_reaches_the_encoder(source, tmp_path, capsys):
     report = json.loads(capsys.readouterr().out)
     assert report["settings"]["train_texels"] == 4
     assert np.all(load_btf(out).tables()["pdf6_slices"] > 0)  # all 16 texels encoded
+
+
+def test_training_knobs_reach_the_encoder(source, tmp_path, capsys):
+    """--train-per-code and --iterations (the wallpaper run's knobs, docs/accuracy.md) reach
+    the settings; a negative one is one clear error and no file."""
+    out = tmp_path / "train.btfm"
+    args = ["compress", str(source), "-o", str(out), *KNOBS]
+    assert main([*args, "--train-per-code", "2", "--iterations", "2", "--no-psnr"]) == 0
+    settings = json.loads(capsys.readouterr().out)["settings"]
+    assert (settings["train_per_code"], settings["iterations"]) == (2, 2)
+    bad = tmp_path / "bad.btfm"
+    assert main(["compress", str(source), "-o", str(bad), "--iterations", "-1"]) == 2
+    assert "must not be negative" in capsys.readouterr().err
+    assert not bad.exists()

@@ -103,6 +103,8 @@ class MLVQSettings:
         for name in ("k1", "k2", "k3", "k4", "k_colours", "k_index_ab", "k_colour_functions"):
             if getattr(self, name) < 1:
                 raise BTFFormatError(f"MLVQ encoder: {name} must be at least 1")
+        if self.iterations < 0 or self.train_per_code < 0:
+            raise BTFFormatError("MLVQ encoder: iterations and train_per_code must not be negative")
         if not (self.scale_bits == 0 or 2 <= self.scale_bits <= 16):
             raise BTFFormatError("MLVQ encoder: scale_bits must be 0 (float32) or 2..16")
         if self.n_beta < 3 or self.n_alpha < 2 or self.n_theta < 2 or self.n_phi < 1:
