@@ -206,22 +206,6 @@ __kernel void render_direct(const int width, const int height, const int row0,
  * approximate. The host renders samples [first_sample, first_sample + samples) per launch and
  * averages launches; a sample's random points depend only on its index, not on the split. */
 
-/* Largest index i in [0, n) with cdf[i] <= u (cdf has n + 1 entries from 0 to 1). */
-inline int cdf_search(__global const float *cdf, int n, float u)
-{
-  int lo = 0, hi = n;
-  while (hi - lo > 1) {
-    int mid = (lo + hi) / 2;
-    if (cdf[mid] <= u) {
-      lo = mid;
-    }
-    else {
-      hi = mid;
-    }
-  }
-  return lo;
-}
-
 inline float3 env_direction(float s, float t, float rotation)
 {
   float theta = M_PI_F * t, phi = M_PI_F - 2.0f * M_PI_F * s;

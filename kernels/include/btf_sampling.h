@@ -17,6 +17,23 @@
 #define HAS_BTF_IS (HAS_MLVQ || HAS_DENSE || HAS_SVD)
 #endif
 
+/* Largest i < n with cdf[i] <= u (cdf[0] = 0, cdf[n] = 1): the one piecewise-constant CDF
+ * search, for these tables and the environment's (render_direct.cl). */
+inline int cdf_search(Stream cdf, int n, float u)
+{
+  int lo = 0, hi = n;
+  while (hi - lo > 1) {
+    int mid = (lo + hi) / 2;
+    if (cdf[mid] <= u) {
+      lo = mid;
+    }
+    else {
+      hi = mid;
+    }
+  }
+  return lo;
+}
+
 #if HAS_BTF_IS
 /* Shirley and Chiu's concentric map [0,1]² → unit disk, and its inverse (as
  * core/btf_importance.py square_to_disk / disk_to_square). */
@@ -71,21 +88,6 @@ inline int is_view_block(Stream I, float3 wo)
   return base + is_cell(wo, views) * (2 * g * g + 2 * g + 1);
 }
 
-/* Largest i < n with cdf[i] <= u (cdf[0] = 0, cdf[n] = 1). */
-inline int is_search(Stream cdf, int n, float u)
-{
-  int lo = 0, hi = n;
-  while (hi - lo > 1) {
-    int mid = (lo + hi) / 2;
-    if (cdf[mid] <= u) {
-      lo = mid;
-    }
-    else {
-      hi = mid;
-    }
-  }
-  return lo;
-}
 
 /* pdf (solid angle) of the table's wi; `block` from is_view_block. */
 inline float is_pdf(Stream I, Stream F, int block, float3 wi)
@@ -103,10 +105,10 @@ inline float3 is_sample(Stream I, Stream F, int block, float2 u, int *cell)
 {
   int g = ITAB(H_IMPORTANCE_GRID);
   Stream rows = F + block + g * g;
-  int row = is_search(rows, g, u.x);
+  int row = cdf_search(rows, g, u.x);
   float fr = (u.x - rows[row]) / fmax(rows[row + 1] - rows[row], 1e-30f);
   Stream cols = rows + (g + 1) * (1 + row);
-  int col = is_search(cols, g, u.y);
+  int col = cdf_search(cols, g, u.y);
   float fc = (u.y - cols[col]) / fmax(cols[col + 1] - cols[col], 1e-30f);
   /* kept inside the cell, so is_pdf finds the cell it was drawn from */
   float2 s = ((float2)(col, row) + clamp((float2)(fc, fr), 1e-4f, 1.0f - 1e-4f)) / (float)g;
