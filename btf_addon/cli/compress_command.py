@@ -149,7 +149,12 @@ def cmd_compress(args) -> int:
             bar(1.0, "measuring PSNR")
     finally:
         bar.close()
-    report = report_json(src, encoded, stats, settings, args)
+    return write_and_report(out, encoded, report_json(src, encoded, stats, settings, args))
+
+
+def write_and_report(out: Path, encoded, report: dict) -> int:
+    """Write the encoding (atomically: Ctrl-C before this leaves no file) and print the
+    report with the file's name and size."""
     write_container(out, encoded)
     report["output"] = str(out)
     report["file_bytes"] = out.stat().st_size
@@ -209,12 +214,7 @@ def _compress_svd(args, src, out: Path) -> int:
         report = svd_report_json(src, encoded, stats, settings, args)
     finally:
         bar.close()
-    write_container(out, encoded)
-    report["output"] = str(out)
-    report["file_bytes"] = out.stat().st_size
-    json.dump(report, sys.stdout, indent=1)
-    sys.stdout.write("\n")
-    return 0
+    return write_and_report(out, encoded, report)
 
 
 def svd_report_json(src, encoded, stats, settings: SVDSettings, args) -> dict:

@@ -1,5 +1,6 @@
 """The Compress BTF operator (blender/compress_operator.py) in bpy: writes the encoding,
-reports a user error in one line, and a cancelled job writes nothing. Small synthetic input
+reports a user error in one line, and a cancelled job writes nothing; its SVD choice (codec,
+rank, colour space) reaches the encoder. Small synthetic input
 (4×4 texels, small codebooks): ~3 s in all."""
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from btf_addon.blender import compress_operator as op  # noqa: E402
 from btf_addon.core.codecs import load_btf  # noqa: E402
 from btf_addon.core.container import write_container  # noqa: E402
 from btf_addon.core.encoders.mlvq import MLVQSettings  # noqa: E402
+from btf_addon.core.encoders.svd import SVDSettings  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +46,32 @@ def test_operator_reports_a_missing_input(registered, tmp_path):
 def test_cancelled_job_writes_nothing(source, tmp_path):
     out = tmp_path / "cancelled.btfm"
     job = op.Job(str(source), out, MLVQSettings(k1=24, k2=24, k3=8, k4=4))
+    job.cancel.set()  # Esc before the first progress step: the encoder stops there
+    job.thread.start()
+    job.thread.join(timeout=60)
+    assert job.done.is_set() and job.error is None and job.summary == ""
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["src.btfm"]
+
+
+@pytest.mark.parametrize("colour, model", [("RGB", 0), ("YUV", 1)])
+def test_operator_writes_an_svd_material(registered, source, tmp_path, colour, model):
+    out = tmp_path / "out.btfm"
+    result = bpy.ops.btf.compress(
+        filepath=str(source), output=str(out), codec="SVD", rank=3, colour_space=colour
+    )
+    assert result == {"FINISHED"}
+    enc = load_btf(out)
+    assert enc.meta.codec == "svd" and enc.ranks == (3, 3, 3) and enc.p.colour_model == model
+
+
+def test_default_output_name_says_the_codec(registered, source):
+    assert bpy.ops.btf.compress(filepath=str(source), codec="SVD", rank=1) == {"FINISHED"}
+    assert load_btf(source.with_suffix(".svd.btfm")).meta.codec == "svd"
+
+
+def test_cancelled_svd_job_writes_nothing(source, tmp_path):
+    out = tmp_path / "cancelled.btfm"
+    job = op.Job(str(source), out, SVDSettings(ranks=2))
     job.cancel.set()  # Esc before the first progress step: the encoder stops there
     job.thread.start()
     job.thread.join(timeout=60)
