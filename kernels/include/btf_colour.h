@@ -2,15 +2,16 @@
 #ifndef BTF_COLOUR_H
 #define BTF_COLOUR_H
 
+#include "btf_builtins.h"
+
 /* Studio-swing BT.601 YCbCr (8-bit scale) -> RGB (8-bit scale), negatives clamped. */
 inline float3 btf_ycbcr_to_rgb(float y, float cb, float cr)
 {
   float3 rgb = (float3)(1.1643828f * y + 1.5960273f * cr - 222.921f,
                         1.1643828f * y - 0.39176172f * cb - 0.81296875f * cr + 135.576f,
                         1.1643828f * y + 2.0172344f * cb - 276.836f);
-  /* per component: PoCL's vector fmax is an out-of-line call (btf_packed.h) */
-  return (float3)(__builtin_fmaxf(rgb.x, 0.0f), __builtin_fmaxf(rgb.y, 0.0f),
-                  __builtin_fmaxf(rgb.z, 0.0f));
+  /* per component: PoCL's vector fmax is an out-of-line call (btf_builtins.h) */
+  return (float3)(BTF_FMAX(rgb.x, 0.0f), BTF_FMAX(rgb.y, 0.0f), BTF_FMAX(rgb.z, 0.0f));
 }
 
 inline float btf_srgb_encode(float c)

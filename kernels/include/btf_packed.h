@@ -5,6 +5,7 @@
 #ifndef BTF_PACKED_H
 #define BTF_PACKED_H
 
+#include "btf_builtins.h"
 #include "btf_colour.h"
 
 #define ITAB(i) ((int)I[(i)])
@@ -34,15 +35,6 @@ typedef __global const float *Stream;
 #define HAS_ANALYTIC 1
 #endif
 
-/* PoCL (3.0, the CPU driver) links OpenCL's builtins — floor, fmax, clamp, vload4, dot… — as
- * calls that LLVM does not inline into the kernel (seen in the compiled eval_btf.so: 18 calls
- * of floor alone), which costs a call each and keeps the work-item loop from being vectorised.
- * The decode's hot path therefore uses clang's builtins, which compile to single instructions
- * (roundss, maxss, sqrtss), and plain element loads. Same values: floor, fmax, fmin, sqrt,
- * fabs and copysign are exact or correctly rounded either way. */
-#define BTF_FLOOR(x) __builtin_floorf(x)
-#define BTF_FMAX(a, b) __builtin_fmaxf((a), (b))
-#define BTF_FMIN(a, b) __builtin_fminf((a), (b))
 #define BTF_CLAMPF(x, lo, hi) BTF_FMIN(BTF_FMAX((x), (lo)), (hi))
 #define BTF_IMIN(a, b) ((a) < (b) ? (a) : (b))
 #define BTF_IMAX(a, b) ((a) > (b) ? (a) : (b))
@@ -106,18 +98,18 @@ inline float btf_atan_unit(float a)
  * so that work-items stay in step; (0, 0) gives 0. */
 inline float btf_atan2_deg_xpos(float y, float x)
 {
-  float ay = __builtin_fabsf(y);
+  float ay = BTF_FABS(y);
   float hi = BTF_FMAX(ay, x), lo = BTF_FMIN(ay, x);
   float a = btf_atan_unit(hi > 0.0f ? lo / hi : 0.0f);
   a = ay > x ? M_PI_2_F - a : a;
-  return __builtin_copysignf(BTF_DEG(a), y);
+  return BTF_COPYSIGN(BTF_DEG(a), y);
 }
 
 /* sin and cos of an angle in degrees: reduced exactly to [-45°, 45°] in degrees, then Taylor
  * polynomials (truncation < 3e-9 there), the quadrant by selects. */
 inline float btf_sincos_deg(float deg, float *c)
 {
-  float k = __builtin_rintf(deg / 90.0f);
+  float k = BTF_RINT(deg / 90.0f);
   float x = BTF_RAD(deg - 90.0f * k);
   float x2 = x * x;
   float s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f + x2 * (-1.0f / 5040.0f +
@@ -193,7 +185,7 @@ __attribute__((always_inline)) inline MLVQCell mlvq_cell(Stream I, Stream F, flo
   /* (x, y, wi.z) is wi turned about the normal, a unit vector: cos β = √(y² + z²) without
    * the cancellation of √(1 − x²), and β, α as atan2 stay accurate at grazing light, where the
    * original's asin in float32 loses half the digits (β → ±90°). */
-  float cos_beta = __builtin_sqrtf(by * by + wi.z * wi.z);
+  float cos_beta = BTF_SQRT(by * by + wi.z * wi.z);
   float beta = btf_atan2_deg_xpos(bx, cos_beta);
   float alpha = cos_beta < 1e-3f ? 0.0f : btf_atan2_deg_xpos(by, BTF_FMAX(wi.z, 0.0f));
 

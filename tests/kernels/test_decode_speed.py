@@ -161,3 +161,26 @@ def test_batched_kernel_equals_eval_btf(alu, cl_context, rng):
         cl.enqueue_copy(cl_context.queue, out, out_buf)
         outs.append(out)
     np.testing.assert_array_equal(outs[1], outs[0])
+
+
+def test_standard_functions_branch_decodes_alike(alu, cl_context, rng, tmp_path, monkeypatch):
+    """OpenCL compilers that are not clang get btf_builtins.h's standard functions instead of
+    clang's builtins (PoCL is clang: the branch is built here with __clang__ undefined). Both
+    are exact or correctly rounded, so the decode is the same to the last bit."""
+    from btf_addon.cl import programs
+    from btf_addon.cl.evaluate import device_btf
+
+    q = random_queries(rng, 4001)
+    want = device_btf(alu, cl_context).evaluate_angles(q)
+    monkeypatch.setenv("BTF_CL_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(programs, "_memory_cache", {})
+    expand = programs.expand_includes
+
+    def without_clang(path, seen=None):
+        text = expand(path, seen)
+        return text if seen is not None else "#undef __clang__\n" + text  # the top file only
+
+    monkeypatch.setattr(programs, "expand_includes", without_clang)
+    got = device_btf(alu, cl_context).evaluate_angles(q)
+    assert programs.stats["compiled"] >= 1  # built from the patched source, not a cache
+    np.testing.assert_array_equal(got, want)
