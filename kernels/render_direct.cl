@@ -17,7 +17,12 @@
  * in every pixel: the viewport's jittered passes when its batches hold as many lights. Else every subpixel sees all N, the
  * points rotated per pixel (Cranley-Patterson: one pattern everywhere would leave a structured
  * error instead of a falling one). The data passes stay at the pixel centre (a depth averaged
- * over an edge is no depth at all). */
+ * over an edge is no depth at all).
+ *
+ * Film › Transparent (transparent = 1, both kernels): the World is left out of Combined where
+ * camera rays miss, and alpha is the filter-weighted share of rays that hit a surface
+ * (premultiplied, as Cycles): 0 on the background, fractional along anti-aliased edges. The
+ * World still lights the surfaces. */
 
 #ifndef HAS_SHADOWS
 #define HAS_SHADOWS 1
@@ -93,7 +98,7 @@ inline float3 shade_direct(const SurfacePoint *sp, __global const float *ints,
 /* Pixel (x, y) as the mean over aa_samples rays through the filter's footprint at the given
  * points in [0, 1)² (rotated per pixel); with split_lights subpixel s is lit by the s-th of aa_samples consecutive
  * blocks of the lights and weighs as many lights as its block holds. */
-inline float3 shade_subpixels(int x, int y, int width, int height,
+inline float4 shade_subpixels(int x, int y, int width, int height,
                               __global const float *world_from_clip, int tri_count,
                               __global const float *bounds, __global const int *links,
                               __global const float *corners, __global const int *tri_material,
@@ -104,7 +109,7 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
                               int env_h, float2 env_params, __global const float *scene_lights,
                               int scene_light_count, __global const float *subpixels,
                               int aa_samples, int split_lights,
-                              __global const float *filter_table)
+                              __global const float *filter_table, int transparent)
 {
   /* Split lights: the same offsets in every pixel, in the viewport's order (its pass p adds
    * block p at offset p), so F12 is the converged viewport's image. All lights per subpixel:
@@ -114,6 +119,7 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
                                  : (float2)((float)(hash >> 8), (float)(pcg_hash(hash) >> 8)) /
                                        16777216.0f;
   float3 total = (float3)(0.0f);
+  float coverage = 0.0f; /* the weight of subpixels that hit a surface: Film › Transparent's alpha */
   for (int s = 0; s < aa_samples; s++) {
     int first = split_lights ? s * n_lights / aa_samples : 0;
     int count = split_lights ? (s + 1) * n_lights / aa_samples - first : n_lights;
@@ -127,16 +133,19 @@ inline float3 shade_subpixels(int x, int y, int width, int height,
     int tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
                              corners, &o, &d, &t, &bu, &bv);
     if (tri < 0) {
-      total += weight * env_lookup(env, env_w, env_h, env_params, d);
+      if (!transparent) { /* a transparent film has no World behind the surfaces */
+        total += weight * env_lookup(env, env_w, env_h, env_params, d);
+      }
       continue;
     }
+    coverage += weight;
     SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material,
                                     material_params, eps);
     total += weight * shade_direct(&sp, ints, floats, material_offsets, material_params, lights,
                                    first, count, eps, bounds, links, corners, scene_lights,
                                    scene_light_count);
   }
-  return total;
+  return (float4)(total, coverage);
 }
 
 __kernel void render_direct(const int width, const int height, const int row0,
@@ -151,7 +160,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             __global const float *scene_lights, const int scene_light_count,
                             __global const float *subpixels, const int aa_samples,
                             const int split_lights, __global const float *filter_table,
-                            __global float *combined,
+                            const int transparent, __global float *combined,
                             __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
@@ -166,15 +175,18 @@ __kernel void render_direct(const int width, const int height, const int row0,
   int tri = primary_hit(x, y, width, height, world_from_clip, tri_count, bounds, links, corners,
                         &o, &d, &t, &bu, &bv);
   if (tri < 0) {
-    float3 world = env_lookup(env, env_w, env_h, env_params, d);
+    /* Film › Transparent: premultiplied, so the World is 0 with alpha 0 (as Cycles). */
+    float4 world = transparent ? (float4)(0.0f)
+                               : (float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f);
     if (aa_samples > 1) { /* an edge may still cross the filter's footprint */
       world = shade_subpixels(x, y, width, height, world_from_clip, tri_count, bounds, links,
                               corners, tri_material, ints, floats, material_offsets,
                               material_params, lights, n_lights, eps, env, env_w, env_h,
                               env_params, scene_lights, scene_light_count, subpixels, aa_samples,
-                              split_lights, filter_table);
+                              split_lights, filter_table, transparent);
+      world.w = transparent ? world.w : 1.0f; /* alpha: coverage on a transparent film */
     }
-    vstore4((float4)(world, 1.0f), px, combined);
+    vstore4(world, px, combined);
     depth[px] = 1e10f;
     vstore3((float3)(0.0f), px, normal_out);
     vstore2((float2)(0.0f), px, uv_out);
@@ -182,16 +194,19 @@ __kernel void render_direct(const int width, const int height, const int row0,
   }
   SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params,
                                   eps);
-  float3 sum =
+  float4 sum =
       aa_samples > 1
           ? shade_subpixels(x, y, width, height, world_from_clip, tri_count, bounds, links,
                             corners, tri_material, ints, floats, material_offsets,
                             material_params, lights, n_lights, eps, env, env_w, env_h, env_params,
                             scene_lights, scene_light_count, subpixels, aa_samples, split_lights,
-                            filter_table)
-          : shade_direct(&sp, ints, floats, material_offsets, material_params, lights, 0,
-                         n_lights, eps, bounds, links, corners, scene_lights, scene_light_count);
-  vstore4((float4)(sum, 1.0f), px, combined);
+                            filter_table, transparent)
+          : (float4)(shade_direct(&sp, ints, floats, material_offsets, material_params, lights, 0,
+                                  n_lights, eps, bounds, links, corners, scene_lights,
+                                  scene_light_count),
+                     1.0f);
+  sum.w = transparent ? sum.w : 1.0f; /* alpha: coverage on a transparent film */
+  vstore4(sum, px, combined);
   depth[px] = dot(sp.p, camera_forward.xyz) + camera_forward.w; /* distance along the camera axis */
   vstore3(sp.n, px, normal_out);
   vstore2(sp.uv, px, uv_out);
@@ -244,7 +259,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *col_pdf, const int first_sample,
                              const int samples, const uint seed,
                              const int max_bounces, const int filtered,
-                             __global const float *filter_table, __global float *combined)
+                             __global const float *filter_table, const int transparent,
+                             __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
   int y = row0 + yr;
@@ -260,8 +276,10 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   int tri = filtered ? -1
                      : primary_hit(x, y, width, height, world_from_clip, tri_count, bounds,
                                    links, corners, &o, &d, &t, &bu, &bv);
-  if (!filtered && tri < 0) {
-    vstore4((float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f), px, combined);
+  if (!filtered && tri < 0) { /* Film › Transparent: premultiplied 0, as Cycles */
+    vstore4(transparent ? (float4)(0.0f)
+                        : (float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f),
+            px, combined);
     return;
   }
   SurfacePoint sp;
@@ -271,6 +289,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   float rotation = env_params.x;
   uint pixel_seed = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
+  int hits = 0; /* samples whose camera ray met a surface: Film › Transparent's alpha */
   for (int si = 0; si < samples; si++) {
     uint index = (uint)(first_sample + si); /* a sample's points depend only on its index */
     Sampler smp = {pixel_seed, index, 0u, pcg_hash(pixel_seed + index)};
@@ -282,11 +301,14 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
                            corners, &o, &d, &t, &bu, &bv);
       if (tri < 0) {
-        sum += env_lookup(env, env_w, env_h, env_params, d);
+        if (!transparent) {
+          sum += env_lookup(env, env_w, env_h, env_params, d);
+        }
         continue;
       }
       cur = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
     }
+    hits++;
     float3 throughput = (float3)(1.0f);
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
       __global const float *I = ints + material_offsets[2 * cur.material];
@@ -368,5 +390,6 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       }
     }
   }
-  vstore4((float4)(sum / (float)max(samples, 1), 1.0f), px, combined);
+  float alpha = transparent ? (float)hits / (float)max(samples, 1) : 1.0f;
+  vstore4((float4)(sum / (float)max(samples, 1), alpha), px, combined);
 }

@@ -103,6 +103,7 @@ def render(engine, depsgraph) -> None:
         # None: the environment's choice (BTF_FIXED_LAUNCHES), as the command line.
         renderer.fixed_launch_split = settings.fixed_launch_split or None
         renderer.importance_sampling = settings.btf_importance_sampling
+        renderer.transparent = transparent
         for note in renderer.notes:
             engine.report({"WARNING"}, note)
     except OpenCLCompileError as exc:
@@ -168,12 +169,9 @@ def render(engine, depsgraph) -> None:
     if sampled:
         # Depth, normal and UV come from the deterministic kernel with one light (cheap).
         passes = renderer.render_direct(lights.prefix(1))
-        background = passes.depth >= MISS_DEPTH
 
         def show(combined: np.ndarray) -> None:
             """Progressive display of the Sampled mode: the image after each pass."""
-            if transparent:
-                combined = transparent_film(combined, background)
             set_pass(layer.passes["Combined"], region, combined[::-1])
             engine.update_result(result)
 
@@ -186,11 +184,8 @@ def render(engine, depsgraph) -> None:
         )
     else:
         passes = renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)
-    combined = passes.combined
-    if transparent:
-        combined = transparent_film(combined, passes.depth >= MISS_DEPTH)
     top_first = {
-        "Combined": combined,
+        "Combined": passes.combined,  # Film › Transparent: alpha is the kernels' coverage
         "Depth": passes.depth[..., None],
         "Normal": passes.normal,
         "UV": np.concatenate([passes.uv, np.ones_like(passes.depth)[..., None]], axis=-1),
@@ -198,18 +193,6 @@ def render(engine, depsgraph) -> None:
     # Blender's buffers: bottom row first.
     set_passes(layer, region, {name: image[::-1] for name, image in top_first.items()})
     engine.end_result(result)
-
-
-#: kernels/render_direct.cl writes this depth (1e10) where the camera ray hits nothing.
-MISS_DEPTH = 1e9
-
-
-def transparent_film(combined: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """Film › Transparent: premultiplied RGBA 0 where the camera ray hits nothing (the World
-    still lights the objects), as Cycles. combined: (h, w, 4); background: (h, w) bool."""
-    out = combined.copy()
-    out[background] = 0.0
-    return out
 
 
 def check_result_size(layer, region: Region) -> None:

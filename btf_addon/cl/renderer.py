@@ -73,6 +73,8 @@ class CLRenderer:
         #: True: launches split the same way every run (bit-identical frames, render/launch.py);
         #: None: as BTF_FIXED_LAUNCHES says; False: sized by measured cost.
         self.fixed_launch_split: bool | None = None
+        #: Film › Transparent: no World where camera rays miss; alpha = coverage (premultiplied).
+        self.transparent = False
         #: What the caller should tell the user: materials reduced to fit the device.
         self.notes: list[str] = []
         self._fitted: list | None = None  # _device_btfs
@@ -282,7 +284,13 @@ class CLRenderer:
         aa = max(int(aa_samples), 1) if self.film is not None else 1
         points = self._buffer(r2_points(aa).ravel(), np.float32)  # rotated per pixel there
         split = bool(split_lights) and n_lights >= aa
-        film_args = [points, np.int32(aa), np.int32(split), self._filter_table()]
+        film_args = [
+            points,
+            np.int32(aa),
+            np.int32(split),
+            self._filter_table(),
+            np.int32(self.transparent),
+        ]
         tail_args = [lights_buf, np.int32(n_lights), self.eps, *self._env_args(), *film_args]
         wfc = self._world_from_clip()
 
@@ -331,7 +339,11 @@ class CLRenderer:
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
         world_args = [self.eps, *self._env_args(), *self.env_tables]
-        film_args = [np.int32(self.film is not None), self._filter_table()]
+        film_args = [
+            np.int32(self.film is not None),
+            self._filter_table(),
+            np.int32(self.transparent),
+        ]
 
         def launch(row0, band, first, count, buffers):
             self.kernel_mis(
