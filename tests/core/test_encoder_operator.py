@@ -18,9 +18,15 @@ from btf_addon.core.encoders.svd import SVDSettings  # noqa: E402
 
 @pytest.fixture(scope="module")
 def registered():
+    """This checkout's operator, registered for the module; the installed extension's (the
+    Blender tests enable it in the same process, under the same idname) is put back after,
+    so its own unregister at exit finds it."""
+    installed = getattr(bpy.types, op.BTF_OT_compress.__name__, None)
     op.register()
     yield
     op.unregister()
+    if installed is not None:
+        bpy.utils.register_class(installed)
 
 
 @pytest.fixture
