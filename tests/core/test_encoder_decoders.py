@@ -19,18 +19,10 @@ def encoded():
 
 
 @pytest.mark.opencl
-def test_opencl_decodes_the_encoding_like_numpy(encoded, rng):
-    from btf_addon.cl.context import create_context
-    from btf_addon.cl.devices import list_devices
+def test_opencl_decodes_the_encoding_like_numpy(encoded, rng, cl_context):
     from btf_addon.cl.evaluate import device_btf
 
-    try:
-        devices = list_devices()
-    except RuntimeError:
-        devices = []
-    if not devices:
-        pytest.skip("no OpenCL device on this machine (setup installs PoCL)")
-    device = device_btf(encoded, create_context(0))
+    device = device_btf(encoded, cl_context)
     q = random_queries(rng, 20_000)
     got, want = device.evaluate_angles(q), encoded.evaluate_angles(q)
     # The same bound as the shared materials' device test (tests/kernels): float32 device
