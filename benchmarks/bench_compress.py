@@ -22,7 +22,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from common import SHARED_BTFBASE, table
+from common import SHARED_BTFBASE, decode_rate, table
 
 from btf_addon.core.analytic import GGXBTF
 from btf_addon.core.dense import DenseBTF, tabulate
@@ -73,15 +73,6 @@ def synthetic(size: int = 16) -> DenseBTF:
     return DenseBTF(base * (ramp[..., None] * tint)[None, None], name=f"synthetic {size}²")
 
 
-def decode_rate(btf, n: int = 200_000) -> float:
-    rng = np.random.default_rng(1)
-    angles = [rng.random(n) * limit for limit in (80, 360, 80, 360)]
-    q = np.column_stack([rng.random((n, 2)), *angles])
-    t0 = time.perf_counter()
-    btf.evaluate_angles(q)
-    return n / (time.perf_counter() - t0) / 1e6
-
-
 def stage_log() -> Callable[[float, str], None]:
     """A progress callback printing each stage's start (seconds since the first call): the
     per-stage profile in the docs comes from these lines."""
@@ -114,7 +105,7 @@ def row(name, src, settings: MLVQSettings, texels: int) -> list:
         value,
         grid,
         stats.seconds,
-        decode_rate(enc),
+        decode_rate(enc, 200_000),
     ]
 
 
@@ -134,7 +125,7 @@ def original_row(name: str, folder) -> list:
         "∞ (reference)",
         "∞ (reference)",
         "19–29 h (2009)",
-        decode_rate(src),
+        decode_rate(src, 200_000),
     ]
 
 

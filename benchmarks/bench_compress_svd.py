@@ -28,7 +28,7 @@ import argparse
 import time
 
 import numpy as np
-from common import SHARED_BTFBASE, table
+from common import SHARED_BTFBASE, decode_rate, table
 
 from btf_addon.core.analytic import GGXBTF
 from btf_addon.core.dense import DenseBTF, tabulate
@@ -75,15 +75,6 @@ def synthetic(size: int = 16) -> DenseBTF:
     return DenseBTF(base * ramp[None, None], name=f"synthetic {size}²")
 
 
-def decode_rate(btf, n: int = 100_000) -> float:
-    rng = np.random.default_rng(1)
-    angles = [rng.random(n) * limit for limit in (80, 360, 80, 360)]
-    q = np.column_stack([rng.random((n, 2)), *angles])
-    t0 = time.perf_counter()
-    btf.evaluate_angles(q)
-    return n / (time.perf_counter() - t0) / 1e6
-
-
 def rows_for(name: str, src, colour: str, ranks_list, texels: int, time_low: bool = True):
     top = ranks_list[-1]
     enc, stats = encode_svd(src, SVDSettings(ranks=top, colour_space=colour))
@@ -105,7 +96,7 @@ def rows_for(name: str, src, colour: str, ranks_list, texels: int, time_low: boo
                 measured_psnr(src, e8, subset),
                 metrics.ssim(src, e),
                 stats.seconds,
-                decode_rate(e),
+                decode_rate(e, 100_000),
             ]
         )
         print(table(HEADERS, out[-1:]), flush=True)
