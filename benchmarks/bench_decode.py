@@ -2,14 +2,15 @@
 
 An evaluation is one decode at one texel. Columns (M evaluations/s, and × numpy measured in the
 same run): the numpy reference (``evaluate_angles``: host sanitising included); the OpenCL
-decode kernel alone (``eval_mlvq``, the one ``device_btf`` launches for MLVQ: tables and queries
-already on the device, program cached: enqueue to finish); OpenCL end to end
+decode kernel alone (``eval_mlvq`` or ``eval_dense``, the one ``device_btf`` launches: tables and
+queries already on the device, program cached: enqueue to finish); OpenCL end to end
 (``device_btf(...).evaluate_angles``: host sanitising, transfers); the GLSL query shader on the
 moderngl context (llvmpipe here) end to end. Two query sets: ``random`` (uniform uv and angles:
 every evaluation a different texel and angle cell, the worst case for caches) and ``coherent``
 (as a render issues them: a scan-line grid of uv that steps about one texel per query, one
 light direction, a view direction varying smoothly).
 Filtered lookups (bilinear: four evaluations each) are a row of their own, counted in lookups/s.
+A third material, wallpaper tabulated (``materials()``), times the dense decoder.
 
 Usage: ``python benchmarks/bench_decode.py [N]`` (default 10⁶ queries; the scalar decoder of the
 tests runs on 2,000).
@@ -43,7 +44,7 @@ def coherent_queries(n: int, width: int, height: int) -> np.ndarray:
 
 
 class KernelOnly:
-    """The evaluator's kernel (``eval_mlvq`` for MLVQ materials, batched on a CPU) or
+    """The evaluator's kernel (``eval_mlvq``/``eval_dense``, batched on a CPU) or
     ``eval_btf_filtered`` on device-resident queries: enqueue → finish."""
 
     def __init__(self, btf, ctx, q: np.ndarray, filtered: bool = False):
@@ -81,6 +82,24 @@ class KernelOnly:
         return out
 
 
+def materials():
+    """(name, BTF): the two MLVQ materials, then wallpaper tabulated on the UBO2003 grid at
+    16² texels (a dense codec: 81 × 81 × 256 RGB, 20 MB of tables, as much larger than the
+    caches as wallpaper's MLVQ tables are)."""
+    from btf_addon.core.dense import tabulate
+    from btf_addon.core.grid import UBO2003
+
+    for name in ("alu", "wallpaper"):
+        path = SHARED_BTFBASE / name
+        if not path.is_dir():
+            print(f"skipping {name}: {path} not found")
+            continue
+        btf = MLVQBTF.from_directory(path)
+        yield name, btf
+    if path.is_dir():
+        yield f"{name} (dense 16²)", tabulate(btf, UBO2003, UBO2003, width=16, height=16)
+
+
 def _rate(n: int, seconds: float) -> float:
     return n / seconds / 1e6
 
@@ -105,12 +124,7 @@ def main(n: int = N) -> str:
         print(f"GLSL skipped: {exc}")
         gl, gl_name = None, "-"
     rows = []
-    for name in ("alu", "wallpaper"):
-        path = SHARED_BTFBASE / name
-        if not path.is_dir():
-            print(f"skipping {name}: {path} not found")
-            continue
-        btf = MLVQBTF.from_directory(path)
+    for name, btf in materials():
         sets = {
             "random": random_queries(np.random.default_rng(1), n),
             "coherent": coherent_queries(n, btf.meta.width, btf.meta.height),

@@ -4,8 +4,9 @@
 (core/model.py ``DelegatingBTF``): the base class still sanitises and chunks the queries on the
 host (NaN/Inf, below-horizon and zero-length rows never reach the device); ``KernelEvaluator``
 evaluates the valid rows from the packed table layout that the GLSL back end uses too
-(btf_addon/core/packed.py). MLVQ materials go through ``eval_mlvq``, which on a CPU device
-decodes a batch of queries per work-item level by level so their cache misses overlap
+(btf_addon/core/packed.py). MLVQ and dense materials go through ``eval_mlvq`` and
+``eval_dense``, which on a CPU device decode a batch of queries per work-item, issuing the
+batch's reads of each step before using any, so that their cache misses overlap
 (docs/accuracy.md "BTFbase decoding").
 """
 
@@ -21,7 +22,7 @@ from .programs import build_program
 
 class KernelEvaluator:
     """Valid queries → (M, 3) float32 values (what the device computes; the base class
-    clamps them into its float32 output) by ``eval_mlvq`` or ``eval_btf`` on one device; the
+    clamps them into its float32 output) by ``batched_launch``'s kernel on one device; the
     BTF's packed tables stay on the device between calls."""
 
     def __init__(self, btf: BTF, cl_context: CLContext):
@@ -30,11 +31,10 @@ class KernelEvaluator:
         packed = pack(btf)  # raises UnsupportedBTFError for procedural codecs
         self.ctx = cl_context
         self._cl = cl
-        self.batch, self.local_size = mlvq_launch(btf, cl_context.device)
-        defines = {"MLVQ_BATCH": self.batch} if self.batch else {}
+        name, self.batch, self.local_size = batched_launch(btf, cl_context.device)
+        defines = {BATCH_DEFINES[name]: self.batch} if self.batch else {}
         self.program = build_program(cl_context.context, cl_context.device, "btf_eval.cl", defines)
-        # retrieved once, reused per chunk
-        self.kernel = cl.Kernel(self.program, "eval_mlvq" if self.batch else "eval_btf")
+        self.kernel = cl.Kernel(self.program, name)  # retrieved once, reused per chunk
         self._ints = self._buffer(packed.ints.ravel())
         self._floats = self._buffer(packed.floats.ravel())
 
@@ -80,26 +80,30 @@ class KernelEvaluator:
         return out
 
 
-def mlvq_launch(btf: BTF, device) -> tuple[int, int | None]:
-    """(queries per work-item, work-group size) of ``eval_mlvq`` for an MLVQ material on this
-    device; (0, None) for other codecs (``eval_btf``). A CPU decodes MLVQ_BATCH_CPU queries per
-    work-item in groups of 16: PoCL keeps a group's private batches on one thread's stack, and
-    its own choice of a large group overflowed it at 8 queries per work-item. A GPU hides the
-    misses with its many work-items instead: one query each, its own group size."""
+def batched_launch(btf: BTF, device) -> tuple[str, int, int | None]:
+    """(kernel, queries per work-item, work-group size) for this material on this device: the
+    batched decode of its codec (``eval_mlvq``, ``eval_dense``), or ``eval_btf`` with (0,
+    None) for the others. A CPU decodes BATCH_CPU queries per work-item in groups of 16, so the
+    cache misses of a batch overlap: PoCL keeps a group's private batches on one thread's
+    stack, and its own choice of a large group overflowed it at 8 queries per work-item. A GPU
+    hides the misses with its many work-items instead: one query each, its own group size."""
     import pyopencl as cl
 
     while isinstance(btf, DelegatingBTF):
         btf = btf.btf
-    if btf.meta.codec != "mlvq":
-        return 0, None
+    name = {"mlvq": "eval_mlvq", "dense": "eval_dense"}.get(btf.meta.codec)
+    if name is None:
+        return "eval_btf", 0, None
     if device.type & cl.device_type.CPU:
-        return MLVQ_BATCH_CPU, 16
-    return 1, None
+        return name, BATCH_CPU, 16
+    return name, 1, None
 
 
-#: Queries per work-item of eval_mlvq on a CPU: 8 was the best of 1, 2, 4, 8, 16 in the A/B runs of
-#: docs/accuracy.md (wallpaper random: 2× one query per work-item).
-MLVQ_BATCH_CPU = 8
+#: Queries per work-item of the batched decodes on a CPU: 8 was the best of 1, 2, 4, 8, 16 in
+#: the A/B runs of docs/accuracy.md (wallpaper random: 2× one query per work-item).
+BATCH_CPU = 8
+#: The define that sets each batched kernel's batch (kernels/btf_eval.cl).
+BATCH_DEFINES = {"eval_mlvq": "MLVQ_BATCH", "eval_dense": "DENSE_BATCH"}
 
 
 def device_btf(btf: BTF, cl_context: CLContext) -> DelegatingBTF:

@@ -143,7 +143,8 @@ def source_name(path: Path) -> str:
 
 
 def expand_includes(path: Path, seen: set[Path] | None = None) -> str:
-    """The source with ``#include "x.h"`` lines replaced by kernels/include/x.h (once each).
+    """The source with ``#include "x.h"`` lines replaced by kernels/include/x.h (once each; a
+    ``.inc`` file, a template written for the type its includer defines, at every include).
 
     Done here rather than with ``-I``: install paths may contain spaces or non-ASCII characters
     that OpenCL compilers' option parsing handles differently, and the text hashed for the cache
@@ -157,7 +158,8 @@ def expand_includes(path: Path, seen: set[Path] | None = None) -> str:
         if stripped.startswith('#include "') and stripped.endswith('"'):
             header = KERNELS_DIR / "include" / stripped[len('#include "') : -1]
             if header not in seen:
-                seen.add(header)
+                if header.suffix != ".inc":
+                    seen.add(header)
                 out.append(expand_includes(header, seen))
             out.append(f'#line {number + 1} "{name}"')  # back in this file, after the include
             continue

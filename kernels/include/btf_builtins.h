@@ -18,6 +18,9 @@
 #define BTF_SQRT(x) __builtin_sqrtf(x)
 #define BTF_RINT(x) __builtin_rintf(x)
 #define BTF_COPYSIGN(a, b) __builtin_copysignf((a), (b))
+/* fmax of two vectors of one type (clang >= 14: one maxps, no call) */
+#define BTF_VMAX(a, b) __builtin_elementwise_max((a), (b))
+#define BTF_VMIN(a, b) __builtin_elementwise_min((a), (b))
 #else
 #define BTF_FLOOR(x) floor(x)
 #define BTF_FMAX(a, b) fmax((a), (b))
@@ -26,6 +29,8 @@
 #define BTF_SQRT(x) sqrt(x)
 #define BTF_RINT(x) rint(x)
 #define BTF_COPYSIGN(a, b) copysign((a), (b))
+#define BTF_VMAX(a, b) fmax((a), (b))
+#define BTF_VMIN(a, b) fmin((a), (b))
 #endif
 
 #endif

@@ -4,15 +4,13 @@
 
 #include "btf_builtins.h"
 
-/* Studio-swing BT.601 YCbCr (8-bit scale) -> RGB (8-bit scale), negatives clamped. */
-inline float3 btf_ycbcr_to_rgb(float y, float cb, float cr)
-{
-  float3 rgb = (float3)(1.1643828f * y + 1.5960273f * cr - 222.921f,
-                        1.1643828f * y - 0.39176172f * cb - 0.81296875f * cr + 135.576f,
-                        1.1643828f * y + 2.0172344f * cb - 276.836f);
-  /* per component: PoCL's vector fmax is an out-of-line call (btf_builtins.h) */
-  return (float3)(BTF_FMAX(rgb.x, 0.0f), BTF_FMAX(rgb.y, 0.0f), BTF_FMAX(rgb.z, 0.0f));
-}
+/* Studio-swing BT.601 YCbCr (8-bit scale) -> RGB (8-bit scale) before the clamp of negatives,
+ * for floats or vectors of them alike (mlvq_walk_rgb converts four 2D functions at once and
+ * clamps with BTF_VMAX). */
+#define BTF_YCBCR_R(y, cb, cr) (1.1643828f * (y) + 1.5960273f * (cr) - 222.921f)
+#define BTF_YCBCR_G(y, cb, cr) \
+  (1.1643828f * (y) - 0.39176172f * (cb) - 0.81296875f * (cr) + 135.576f)
+#define BTF_YCBCR_B(y, cb, cr) (1.1643828f * (y) + 2.0172344f * (cb) - 276.836f)
 
 inline float btf_srgb_encode(float c)
 {

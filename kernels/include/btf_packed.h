@@ -61,13 +61,6 @@ inline float btf_mod(float x, float m)
   return x - m * BTF_FLOOR(x / m);
 }
 
-inline void btf_uniform_index(float x, float step, int max_index, int *i, float *w)
-{
-  int k = BTF_IMIN(BTF_IMAX((int)(x / step), 0), max_index);
-  *i = k;
-  *w = (x - k * step) / step;
-}
-
 /* --- MLVQ --------------------------------------------------------------------------------- */
 /* Where the time goes (docs/accuracy.md "BTFbase decoding"): a decode is 4 (φ, θ) corners ×
  * 2 α nodes = 8 luminance curves and 8 colour curves, each behind a chain of dependent table
@@ -78,68 +71,35 @@ inline void btf_uniform_index(float x, float step, int max_index, int *i, float 
  * arithmetic as btf_addon/core/mlvq.py up to float rounding (tests/kernels/test_decode_speed.py
  * states the tolerance). */
 
-/* atan(a) for a in [0, 1] in radians: odd minimax-fitted polynomial, |error| < 1.1e-7 rad
- * (float32's own rounding of atan near 1 is 6e-8). */
-inline float btf_atan_unit(float a)
-{
-  float s = a * a;
-  float p = -0.004054556135088205f;
-  p = p * s + 0.02186293713748455f;
-  p = p * s - 0.05591233819723129f;
-  p = p * s + 0.09642201662063599f;
-  p = p * s - 0.13908633589744568f;
-  p = p * s + 0.19946567714214325f;
-  p = p * s - 0.33329862356185913f;
-  p = p * s + 0.9999993443489075f;
-  return a * p;
-}
-
-/* atan2(y, x) in degrees for x >= 0 (the two angles of the decode): in [-90, 90], branch-free
- * so that work-items stay in step; (0, 0) gives 0. */
-inline float btf_atan2_deg_xpos(float y, float x)
-{
-  float ay = BTF_FABS(y);
-  float hi = BTF_FMAX(ay, x), lo = BTF_FMIN(ay, x);
-  float a = btf_atan_unit(hi > 0.0f ? lo / hi : 0.0f);
-  a = ay > x ? M_PI_2_F - a : a;
-  return BTF_COPYSIGN(BTF_DEG(a), y);
-}
-
-/* sin and cos of an angle in degrees: reduced exactly to [-45°, 45°] in degrees, then Taylor
- * polynomials (truncation < 3e-9 there), the quadrant by selects. */
-inline float btf_sincos_deg(float deg, float *c)
-{
-  float k = BTF_RINT(deg / 90.0f);
-  float x = BTF_RAD(deg - 90.0f * k);
-  float x2 = x * x;
-  float s = x * (1.0f + x2 * (-1.0f / 6.0f + x2 * (1.0f / 120.0f + x2 * (-1.0f / 5040.0f +
-                                                                         x2 / 362880.0f))));
-  float co = 1.0f + x2 * (-0.5f + x2 * (1.0f / 24.0f + x2 * (-1.0f / 720.0f +
-                                                             x2 * (1.0f / 40320.0f -
-                                                                   x2 / 3628800.0f))));
-  int q = ((int)k) & 3;
-  float sq = (q == 0) ? s : (q == 1) ? co : (q == 2) ? -s : -co;
-  float cq = (q == 0) ? co : (q == 1) ? -s : (q == 2) ? -co : s;
-  *c = cq;
-  return sq;
-}
-
-/* The Hermite step of mlvq_pdf1 (core/mlvq.py _pdf1) as three weights on p[i-1], p[i], p[i+1]:
- * left tangent 0.5·(p1 − p[i−1]) (p1 − p0 at i = 0), right 0.5·(p1 − p0) (p1 − p0 at the last
- * interval). The same for every curve of one decode. */
-inline float3 mlvq_hermite_weights(int i, float w, int n_beta)
-{
-  float t2 = w * w, t3 = t2 * w;
-  float h01 = -2.0f * t3 + 3.0f * t2;
-  float h00 = 1.0f - h01;
-  float h11 = t3 - t2;
-  float h10 = h11 - t2 + w;
-  float gm = (i == n_beta - 2) ? 1.0f : 0.5f;
-  /* m0 = p1 − p0 at i = 0 (edge), else 0.5·(p1 − p[i−1]): a select, not a branch */
-  float3 inner = (float3)(-0.5f * h10, h00 - gm * h11, h01 + 0.5f * h10 + gm * h11);
-  float3 edge = (float3)(0.0f, h00 - h10 - gm * h11, h01 + h10 + gm * h11);
-  return i == 0 ? edge : inner;
-}
+/* The angle maths (atan2, sincos, the four indices and the Hermite weights), for float here;
+ * eval_mlvq includes it again for float8 (kernels/btf_eval.cl). */
+#define BTF_T float
+#define BTF_I int
+#define BTF_N(name) name
+#define BTF_TMAX(a, b) BTF_FMAX((a), (b))
+#define BTF_TMIN(a, b) BTF_FMIN((a), (b))
+#define BTF_TABS(x) BTF_FABS(x)
+#define BTF_TSQRT(x) BTF_SQRT(x)
+#define BTF_TRINT(x) BTF_RINT(x)
+#define BTF_TFLOOR(x) BTF_FLOOR(x)
+#define BTF_TCOPYSIGN(a, b) BTF_COPYSIGN((a), (b))
+#define BTF_TOINT(x) ((int)(x))
+#define BTF_TOFLOAT(i) ((float)(i))
+#define BTF_TLOAD(p, i) ((p)[(i)])
+#include "btf_angles.inc"
+#undef BTF_T
+#undef BTF_I
+#undef BTF_N
+#undef BTF_TMAX
+#undef BTF_TMIN
+#undef BTF_TABS
+#undef BTF_TSQRT
+#undef BTF_TRINT
+#undef BTF_TFLOOR
+#undef BTF_TCOPYSIGN
+#undef BTF_TOINT
+#undef BTF_TOFLOAT
+#undef BTF_TLOAD
 
 typedef struct {
   int n_beta, n_alpha, n_theta, n_phi;
@@ -150,66 +110,40 @@ typedef struct {
   int pdf2_col, pdf1, f2, fab, f43;
 } MLVQCell;
 
-/* Luminance and colour (one 2D function at (α, β), already scaled) → RGB. */
-inline float3 mlvq_rgb(Stream I, float lum, float2 cbcr)
-{
-#if defined(MLVQ_HDR) && !MLVQ_HDR /* an LDR material's program: no LogLuv path to step over */
-  return btf_ycbcr_to_rgb(lum, cbcr.x, cbcr.y);
-#endif
-  if (ITAB(H_HDR)) {
-    return btf_logluv_to_rgb(lum, cbcr.x, cbcr.y);
-  }
-  return btf_ycbcr_to_rgb(lum, cbcr.x, cbcr.y);
-}
-
-/* Everything of a decode that does not depend on the texel: indices and weights of the
- * angles, table offsets. Angles in degrees, theta <= 90, and wi the unit light direction of
- * (theta_i, phi_i). A bilinear lookup computes it once for its four texels. */
-__attribute__((always_inline)) inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi, float theta_i, float phi_i,
-                          float theta_v, float phi_v)
+/* A cell from its angles (mlvq_angles, for one query or one lane of eight) and the material's
+ * sizes and table offsets, read once. */
+__attribute__((always_inline)) inline MLVQCell mlvq_cell_of(Stream I, MLVQAngles a)
 {
   MLVQCell c;
   c.n_beta = ITAB(H_N_BETA);
   c.n_alpha = ITAB(H_N_ALPHA);
   c.n_theta = ITAB(H_N_THETA);
   c.n_phi = ITAB(H_N_PHI);
-  float view_phi = btf_mod(360.0f - phi_v, 360.0f);
-  /* The original rotates the light by φ' = φv − φi − 90° and takes x = cos φ'·sin θi,
-   * y = sin φ'·sin θi: in terms of wi = (sin θi cos φi, sin θi sin φi, cos θi) that is
-   * x = sin φv·wi.x − cos φv·wi.y, y = −(cos φv·wi.x + sin φv·wi.y). */
-  float cos_pv;
-  float sin_pv = btf_sincos_deg(phi_v, &cos_pv);
-  float bx = sin_pv * wi.x - cos_pv * wi.y, by = -(cos_pv * wi.x + sin_pv * wi.y);
-  bx = BTF_CLAMPF(bx, -1.0f, 1.0f);
-
-  /* (x, y, wi.z) is wi turned about the normal, a unit vector: cos β = √(y² + z²) without
-   * the cancellation of √(1 − x²), and β, α as atan2 stay accurate at grazing light, where the
-   * original's asin in float32 loses half the digits (β → ±90°). */
-  float cos_beta = BTF_SQRT(by * by + wi.z * wi.z);
-  float beta = btf_atan2_deg_xpos(bx, cos_beta);
-  float alpha = cos_beta < 1e-3f ? 0.0f : btf_atan2_deg_xpos(by, BTF_FMAX(wi.z, 0.0f));
-
-  if (ITAB(H_COS_BETA)) { /* samples uniform in sin β: the index straight from x = sin β */
-    c.ib = BTF_IMIN(BTF_IMAX((int)((bx + 1.0f) * 0.5f * (c.n_beta - 1)), 0), c.n_beta - 2);
-    float2 b = btf_ld2(F + ITAB(H_F_BETA) + c.ib);
-    c.wb = (beta - b.x) / (b.y - b.x);
-  }
-  else {
-    btf_uniform_index(beta + 90.0f, 180.0f / (c.n_beta - 1), c.n_beta - 2, &c.ib, &c.wb);
-  }
-  btf_uniform_index(alpha + 90.0f, 180.0f / (c.n_alpha - 1), c.n_alpha - 2, &c.ia, &c.wa);
-  btf_uniform_index(BTF_CLAMPF(theta_v, 0.0f, 90.0f), 90.0f / (c.n_theta - 1), c.n_theta - 2,
-                    &c.it, &c.wt);
-  btf_uniform_index(BTF_CLAMPF(view_phi, 0.0f, 360.0f), 360.0f / c.n_phi, c.n_phi - 1, &c.ip,
-                    &c.wp);
-  c.ip1 = c.ip + 1 < c.n_phi ? c.ip + 1 : 0; /* φ wraps: the last slice blends into slice 0 */
-  c.hw = mlvq_hermite_weights(c.ib, c.wb, c.n_beta);
+  c.ib = a.ib;
+  c.ia = a.ia;
+  c.it = a.it;
+  c.ip = a.ip;
+  c.ip1 = a.ip1;
+  c.wb = a.wb;
+  c.wa = a.wa;
+  c.wt = a.wt;
+  c.wp = a.wp;
+  c.hw = (float3)(a.hm, a.h0, a.hp);
   c.pdf2_col = ITAB(H_PDF2_COLOURS);
   c.pdf1 = ITAB(H_F_PDF1);
   c.f2 = ITAB(H_F_MLVQ2);
   c.fab = ITAB(H_F_MLVQ_AB);
   c.f43 = ITAB(H_F_MLVQ43);
   return c;
+}
+
+/* Everything of a decode that does not depend on the texel: indices and weights of the
+ * angles, table offsets. Angles in degrees, theta <= 90, and wi the unit light direction of
+ * (theta_i, phi_i). A bilinear lookup computes it once for its four texels. */
+__attribute__((always_inline)) inline MLVQCell mlvq_cell(Stream I, Stream F, float3 wi,
+                                                         float theta_v, float phi_v)
+{
+  return mlvq_cell_of(I, mlvq_angles(I, F, wi.x, wi.y, wi.z, theta_v, phi_v));
 }
 
 /* i in [-n, 2n) → i mod n without integer division (texel wrapping with the row/column
@@ -283,26 +217,58 @@ inline void mlvq_walk_functions(Stream I, Stream F, MLVQWalk *w)
   w->k[3] = btf_ld2(I + ci.s3);
 }
 
+/* One float of each of the four 2D functions' reads, as the lanes of a float4. */
+#define MLVQ_LANES(p, o) ((float4)((p)[0][o], (p)[1][o], (p)[2][o], (p)[3][o]))
+
 /* Level 4: the eight curves at β (one 3-float read each: p[i−1] is read at i = 0 too, with
  * weight 0; the float stream's header precedes every table, so the read stays inside) and the
- * eight (Cb, Cr) pairs at β's two nodes → the raw RGB. */
+ * eight (Cb, Cr) pairs at β's two nodes → the raw RGB. The four 2D functions are the lanes of
+ * float4s: PoCL runs scalar code as written, so the arithmetic is written as vector arithmetic
+ * (the same expressions per lane as one function at a time: the same values). */
 __attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
 {
   const MLVQCell *c = &w->c;
   int pdf1 = c->pdf1 + c->ib - 1, ab = c->fab + 2 * c->ib, nb = c->n_beta;
   float wa0 = 1.0f - c->wa, wb0 = 1.0f - c->wb;
-  float3 rgb = (float3)(0.0f);
-  float sc[4] = {w->scale.s0, w->scale.s1, w->scale.s2, w->scale.s3};
+  Stream c0[4], c1[4], a0[4], a1[4];
   for (int j = 0; j < 4; j++) { /* unrolled: the 16 reads are independent */
-    float4 s = w->s[j];
-    float2 k = w->k[j];
-    float3 p0 = btf_ld3(F + pdf1 + (int)s.y * nb) * c->hw;
-    float3 p1 = btf_ld3(F + pdf1 + (int)s.w * nb) * c->hw;
-    float lum = wa0 * s.x * (p0.x + p0.y + p0.z) + c->wa * s.z * (p1.x + p1.y + p1.z);
-    float4 a0 = btf_ld4(F + ab + 2 * (int)k.x * nb), a1 = btf_ld4(F + ab + 2 * (int)k.y * nb);
-    float2 cbcr = wa0 * (a0.xy * wb0 + a0.zw * c->wb) + c->wa * (a1.xy * wb0 + a1.zw * c->wb);
-    rgb += mlvq_rgb(I, lum, cbcr) * sc[j];
+    c0[j] = F + pdf1 + (int)w->s[j].y * nb;
+    c1[j] = F + pdf1 + (int)w->s[j].w * nb;
+    a0[j] = F + ab + 2 * (int)w->k[j].x * nb;
+    a1[j] = F + ab + 2 * (int)w->k[j].y * nb;
   }
+  float4 sx = (float4)(w->s[0].x, w->s[1].x, w->s[2].x, w->s[3].x);
+  float4 sz = (float4)(w->s[0].z, w->s[1].z, w->s[2].z, w->s[3].z);
+  float4 p0m = MLVQ_LANES(c0, 0) * c->hw.x, p00 = MLVQ_LANES(c0, 1) * c->hw.y;
+  float4 p0p = MLVQ_LANES(c0, 2) * c->hw.z;
+  float4 p1m = MLVQ_LANES(c1, 0) * c->hw.x, p10 = MLVQ_LANES(c1, 1) * c->hw.y;
+  float4 p1p = MLVQ_LANES(c1, 2) * c->hw.z;
+  float4 lum = wa0 * sx * (p0m + p00 + p0p) + c->wa * sz * (p1m + p10 + p1p);
+  float4 cb = wa0 * (MLVQ_LANES(a0, 0) * wb0 + MLVQ_LANES(a0, 2) * c->wb) +
+              c->wa * (MLVQ_LANES(a1, 0) * wb0 + MLVQ_LANES(a1, 2) * c->wb);
+  float4 cr = wa0 * (MLVQ_LANES(a0, 1) * wb0 + MLVQ_LANES(a0, 3) * c->wb) +
+              c->wa * (MLVQ_LANES(a1, 1) * wb0 + MLVQ_LANES(a1, 3) * c->wb);
+  float4 r, g, b;
+#if !(defined(MLVQ_HDR) && !MLVQ_HDR) /* an LDR material's program: no LogLuv path */
+  if (ITAB(H_HDR)) {
+    float3 t0 = btf_logluv_to_rgb(lum.s0, cb.s0, cr.s0), t1 = btf_logluv_to_rgb(lum.s1, cb.s1, cr.s1);
+    float3 t2 = btf_logluv_to_rgb(lum.s2, cb.s2, cr.s2), t3 = btf_logluv_to_rgb(lum.s3, cb.s3, cr.s3);
+    r = (float4)(t0.x, t1.x, t2.x, t3.x);
+    g = (float4)(t0.y, t1.y, t2.y, t3.y);
+    b = (float4)(t0.z, t1.z, t2.z, t3.z);
+  }
+  else
+#endif
+  {
+    r = BTF_VMAX(BTF_YCBCR_R(lum, cb, cr), (float4)(0.0f));
+    g = BTF_VMAX(BTF_YCBCR_G(lum, cb, cr), (float4)(0.0f));
+    b = BTF_VMAX(BTF_YCBCR_B(lum, cb, cr), (float4)(0.0f));
+  }
+  float3 rgb = (float3)(0.0f); /* summed function by function, in order */
+  rgb += (float3)(r.s0, g.s0, b.s0) * w->scale.s0;
+  rgb += (float3)(r.s1, g.s1, b.s1) * w->scale.s1;
+  rgb += (float3)(r.s2, g.s2, b.s2) * w->scale.s2;
+  rgb += (float3)(r.s3, g.s3, b.s3) * w->scale.s3;
   rgb *= w->scale6;
   if (ITAB(H_HDR)) {
     rgb /= FTAB(F_HDR_VALUE);
@@ -326,7 +292,7 @@ inline float3 mlvq_texel(Stream I, Stream F, const MLVQCell *cp, float2 uv)
 inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_i, float phi_i,
                           float theta_v, float phi_v)
 {
-  MLVQCell c = mlvq_cell(I, F, wi, theta_i, phi_i, theta_v, phi_v);
+  MLVQCell c = mlvq_cell(I, F, wi, theta_v, phi_v);
   return mlvq_texel(I, F, &c, uv);
 }
 
@@ -336,7 +302,7 @@ inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_
  * r1: the ring step of the dense and svd codecs' interpolation (core/grid.py). */
 inline float ring_pair(Stream F, int theta_off, int n_rings, float theta, int *r0, int *r1)
 {
-  theta = clamp(theta, FTAB(theta_off), FTAB(theta_off + n_rings - 1));
+  theta = BTF_CLAMPF(theta, FTAB(theta_off), FTAB(theta_off + n_rings - 1));
   *r0 = 0;
   for (int r = 1; r < n_rings - 1; r++) {
     if (FTAB(theta_off + r) <= theta) {
@@ -351,24 +317,34 @@ inline float ring_pair(Stream F, int theta_off, int n_rings, float theta, int *r
   return (theta - FTAB(theta_off + *r0)) / (FTAB(theta_off + *r1) - FTAB(theta_off + *r0));
 }
 
-inline void ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int n_rings,
-                         float theta, float phi, int idx[4], float w[4])
+/* The four samples around azimuth ``phi`` on rings r0, r1 (ring_pair; wt the weight of r1). */
+inline void ring_azimuth(Stream I, int offsets_off, int r0, int r1, float wt, float phi,
+                         int idx[4], float w[4])
 {
-  int r0, r1;
-  float wt = ring_pair(F, theta_off, n_rings, theta, &r0, &r1);
   for (int k = 0; k < 2; k++) {
     int ring = k ? r1 : r0;
     float ring_w = k ? wt : 1.0f - wt;
     int start = ITAB(offsets_off + ring);
     int n = ITAB(offsets_off + ring + 1) - start;
+    /* pos in [0, n] (btf_mod rounds up to 360 at most): i mod n by one conditional step, as
+     * an integer division is some 40 cycles */
     float pos = btf_mod(phi, 360.0f) / (360.0f / n);
-    int s0 = ((int)floor(pos)) % n;
-    float wp = pos - floor(pos);
+    float fl = BTF_FLOOR(pos);
+    int s0 = btf_wrap((int)fl, n);
+    float wp = pos - fl;
     idx[2 * k] = start + s0;
-    idx[2 * k + 1] = start + (s0 + 1) % n;
+    idx[2 * k + 1] = start + btf_wrap(s0 + 1, n);
     w[2 * k] = ring_w * (1.0f - wp);
     w[2 * k + 1] = ring_w * wp;
   }
+}
+
+inline void ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int n_rings,
+                         float theta, float phi, int idx[4], float w[4])
+{
+  int r0, r1;
+  float wt = ring_pair(F, theta_off, n_rings, theta, &r0, &r1);
+  ring_azimuth(I, offsets_off, r0, r1, wt, phi, idx, w);
 }
 
 inline float ring_sample_phi(Stream I, int offsets_off, int n_rings, int i)
@@ -382,36 +358,61 @@ inline float ring_sample_phi(Stream I, int offsets_off, int n_rings, int i)
   return 0.0f;
 }
 
-inline float3 dense_evaluate(Stream I, Stream F, float2 uv, float theta_i, float phi_i,
-                             float theta_v, float phi_v)
+/* A dense decode's 16 (view, light) samples at one texel: where their RGB lies in F, their
+ * weights, and the grazing-light factor. Computed first, read after (dense_sum): a random
+ * query's 16 reads are cache misses, and issued together they overlap; eval_dense
+ * (kernels/btf_eval.cl) computes a batch's taps before reading any. */
+typedef struct {
+  int base[16];
+  float weight[16];
+  float grazing;
+} DenseTaps;
+
+inline void dense_taps(Stream I, Stream F, float2 uv, float theta_i, float phi_i, float theta_v,
+                       float phi_v, DenseTaps *t)
 {
   int width = ITAB(H_WIDTH), height = ITAB(H_HEIGHT), n_lights = ITAB(H_N_LIGHTS);
-  int x = ((int)floor(btf_mod(uv.x, 1.0f) * width)) % width;
-  int y = ((int)floor(btf_mod(uv.y, 1.0f) * height)) % height;
+  int x = btf_wrap((int)BTF_FLOOR(btf_mod(uv.x, 1.0f) * width), width);
+  int y = btf_wrap((int)BTF_FLOOR(btf_mod(uv.y, 1.0f) * height), height);
   int vi[4], li[4];
   float vw[4], lw[4];
   int n_view_rings = ITAB(H_N_VIEW_RINGS), n_light_rings = ITAB(H_N_LIGHT_RINGS);
   ring_weights(I, F, ITAB(H_F_VIEW_THETA), ITAB(H_VIEW_OFFSETS), n_view_rings, theta_v, phi_v,
                vi, vw);
-  float3 sum = (float3)(0.0f);
-  int data = ITAB(H_F_DATA);
+  int texel = ITAB(H_F_DATA) + (y * width + x) * 3;
+  int l0, l1; /* the light's rings: the same for the four view samples */
+  float lt = ring_pair(F, ITAB(H_F_LIGHT_THETA), n_light_rings, theta_i, &l0, &l1);
   for (int a = 0; a < 4; a++) {
-    if (vw[a] <= 0.0f) {
-      continue;
-    }
     float view_phi = ring_sample_phi(I, ITAB(H_VIEW_OFFSETS), n_view_rings, vi[a]);
-    ring_weights(I, F, ITAB(H_F_LIGHT_THETA), ITAB(H_LIGHT_OFFSETS), n_light_rings, theta_i,
-                 phi_i - phi_v + view_phi, li, lw);
+    ring_azimuth(I, ITAB(H_LIGHT_OFFSETS), l0, l1, lt, phi_i - phi_v + view_phi, li, lw);
     for (int b = 0; b < 4; b++) {
-      int base = data + (((vi[a] * n_lights + li[b]) * height + y) * width + x) * 3;
-      sum += vw[a] * lw[b] * (float3)(FTAB(base), FTAB(base + 1), FTAB(base + 2));
+      /* a view sample of weight 0 (one ring, or the ring's weight exactly 0) adds nothing */
+      t->weight[4 * a + b] = vw[a] > 0.0f ? vw[a] * lw[b] : 0.0f;
+      t->base[4 * a + b] = texel + (vi[a] * n_lights + li[b]) * height * width * 3;
     }
   }
   float last = FTAB(ITAB(H_F_LIGHT_THETA) + n_light_rings - 1);
-  if (theta_i > last) {
-    sum *= cos(radians(theta_i)) / cos(radians(last));
+  t->grazing = theta_i > last ? cos(radians(theta_i)) / cos(radians(last)) : 1.0f;
+}
+
+inline float3 dense_sum(Stream F, const DenseTaps *t)
+{
+  float3 sum = (float3)(0.0f);
+  for (int k = 0; k < 16; k++) {
+    if (t->weight[k] > 0.0f) {
+      int i = t->base[k];
+      sum += t->weight[k] * (float3)(FTAB(i), FTAB(i + 1), FTAB(i + 2));
+    }
   }
-  return sum;
+  return sum * t->grazing;
+}
+
+inline float3 dense_evaluate(Stream I, Stream F, float2 uv, float theta_i, float phi_i,
+                             float theta_v, float phi_v)
+{
+  DenseTaps t;
+  dense_taps(I, F, uv, theta_i, phi_i, theta_v, phi_v, &t);
+  return dense_sum(F, &t);
 }
 
 #include "btf_svd.h"
@@ -513,7 +514,7 @@ inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi,
      * that their cache misses overlap (MLVQWalk) */
     MLVQWalk walk[4];
     for (int k = 0; k < 4; k++) {
-      walk[k].c = k ? walk[0].c : mlvq_cell(I, F, wi, light.x, light.y, view.x, view.y);
+      walk[k].c = k ? walk[0].c : mlvq_cell(I, F, wi, view.x, view.y);
       float x = (k & 1) ? x1 : x0, y = (k & 2) ? y1 : y0;
       mlvq_walk_texel(I, F, &walk[k], (float2)((x + 0.5f) / size.x, (y + 0.5f) / size.y));
     }

@@ -96,4 +96,4 @@ def test_programs_are_cached_in_memory_and_on_disk(device_context, tmp_path, mon
 def test_includes_are_expanded_once():
     text = programs.expand_includes(programs.KERNELS_DIR / "btf_eval.cl")
     assert "#include" not in text
-    assert text.count("inline float3 btf_ycbcr_to_rgb") == 1
+    assert text.count("inline float3 btf_logluv_to_rgb") == 1

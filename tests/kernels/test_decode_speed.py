@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from helpers import random_queries, shared_material
 
+from btf_addon.core.dense import DenseBTF
+from btf_addon.core.grid import UBO2003
 from btf_addon.core.mlvq import MLVQBTF
 from btf_addon.core.packed import INT_SLOT, pack
 
@@ -138,29 +140,96 @@ def test_polynomial_angles_match_libm(cl_context):
     np.testing.assert_allclose(out[:, 2], np.cos(rad), rtol=0, atol=1e-6)
 
 
-def test_batched_kernel_equals_eval_btf(alu, cl_context, rng):
-    """eval_mlvq (MLVQ_BATCH queries per work-item, levels interleaved) gives eval_btf's values
-    bit for bit, with a count that is no multiple of the batch or the group."""
+def test_vector_angles_equal_scalar_angles(cl_context):
+    """The batched kernel's angle maths in float8 (btf_angles.inc built a second time) gives
+    the float build's values bit for bit, over the whole range: poles, ±0, grazing light,
+    quadrant edges of the sincos reduction, wrap-around of φ."""
+    import pyopencl as cl
+
+    from btf_addon.cl.programs import KERNELS_DIR, build_defines, expand_includes
+
+    source = "\n".join(
+        [
+            "__kernel void angles(__global const float *a, __global const float *b,",
+            "                     __global float *out) {",
+            "  int i = get_global_id(0);",
+            "  float8 a8 = vload8(i, a), b8 = vload8(i, b), c8;",
+            "  vstore8(btf_atan2_deg_xpos8(a8, b8), 6 * i, out);",
+            "  vstore8(btf_sincos_deg8(a8 * 400.0f, &c8), 6 * i + 1, out);",
+            "  vstore8(c8, 6 * i + 2, out);",
+            "  for (int k = 0; k < 8; k++) {",
+            "    float c, y = a[8 * i + k], x = b[8 * i + k];",
+            "    out[48 * i + 24 + k] = btf_atan2_deg_xpos(y, x);",
+            "    out[48 * i + 32 + k] = btf_sincos_deg(y * 400.0f, &c);",
+            "    out[48 * i + 40 + k] = c;",
+            "  }",
+            "}",
+        ]
+    )
+    defines = build_defines({"MLVQ_BATCH": 8})
+    text = expand_includes(KERNELS_DIR / "btf_eval.cl") + "\n" + source
+    prg = cl.Program(cl_context.context, text).build([f"-D{k}={v}" for k, v in defines.items()])
+    y = np.concatenate([np.linspace(-1, 1, 20001), [0.0, -0.0, 1.0, -1.0, 1e-8, -1e-8, 0.5]])
+    x = np.concatenate([np.sqrt(1 - np.linspace(-1, 1, 20001) ** 2), [0, 0, 0, 0, 1, 1, -0.0]])
+    y = np.concatenate([y, np.arange(-8, 9) * 22.5 / 400, [0.9, 0.9 + 1e-7]])  # quadrant edges
+    x = np.concatenate([x, np.ones(19)])
+    pad = -len(y) % 8
+    a = np.concatenate([y, np.zeros(pad)]).astype(np.float32)
+    b = np.concatenate([x, np.ones(pad)]).astype(np.float32)
+    out = np.empty((len(a) // 8, 6, 8), np.float32)
+    mf = cl.mem_flags
+    bufs = [
+        cl.Buffer(cl_context.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=v) for v in (a, b)
+    ]
+    out_buf = cl.Buffer(cl_context.context, mf.WRITE_ONLY, out.nbytes)
+    prg.angles(cl_context.queue, (len(a) // 8,), None, *bufs, out_buf)
+    cl.enqueue_copy(cl_context.queue, out, out_buf)
+    assert np.isfinite(out).all()
+    vector, scalar = out[:, :3].view(np.uint32), out[:, 3:].view(np.uint32)
+    np.testing.assert_array_equal(vector, scalar)  # bits: -0.0 and 0.0 differ too
+
+
+def assert_batched_equals_eval_btf(btf, cl_context, rng, n=1001):
+    """The material's batched kernel gives eval_btf's values bit for bit, with a count that is
+    no multiple of the batch or the group."""
     import pyopencl as cl
 
     from btf_addon.cl.evaluate import KernelEvaluator
     from btf_addon.core.angles import directions_from_angles_deg
 
-    n = 1001
     q = random_queries(rng, n)
     wi = directions_from_angles_deg(q[:, 2], q[:, 3])
     wo = directions_from_angles_deg(q[:, 4], q[:, 5])
-    ev = KernelEvaluator(alu, cl_context)
-    assert ev.batch >= 1  # an MLVQ material goes through eval_mlvq
+    ev = KernelEvaluator(btf, cl_context)
+    assert ev.batch >= 1 and ev.kernel.function_name != "eval_btf"  # a batched decode
     args = [ev._buffer(q), ev._buffer(np.stack([wi, wo], axis=1).reshape(-1, 3)), np.int32(n)]
     outs = []
-    for name, size in (("eval_btf", ((n,), None)), ("eval_mlvq", ev.launch_size(n))):
+    for kernel, size in (
+        (cl.Kernel(ev.program, "eval_btf"), ((n,), None)),
+        (ev.kernel, ev.launch_size(n)),
+    ):
         out_buf = cl.Buffer(cl_context.context, cl.mem_flags.WRITE_ONLY, n * 12)
-        cl.Kernel(ev.program, name)(cl_context.queue, *size, *args, ev._ints, ev._floats, out_buf)
+        kernel(cl_context.queue, *size, *args, ev._ints, ev._floats, out_buf)
         out = np.empty((n, 3), np.float32)
         cl.enqueue_copy(cl_context.queue, out, out_buf)
         outs.append(out)
+    assert np.isfinite(outs[0]).all() and outs[0].any()
     np.testing.assert_array_equal(outs[1], outs[0])
+
+
+def test_batched_kernel_equals_eval_btf(alu, cl_context, rng):
+    """eval_mlvq (MLVQ_BATCH queries per work-item, levels interleaved) gives eval_btf's values
+    bit for bit."""
+    assert_batched_equals_eval_btf(alu, cl_context, rng)
+
+
+def test_batched_dense_kernel_equals_eval_btf(cl_context, rng):
+    """eval_dense (DENSE_BATCH queries per work-item, every tap before any read) gives
+    eval_btf's values bit for bit: random values at every (view, light, texel), θ past the
+    last measured ring (the grazing factor) and the pole rings included."""
+    n = len(UBO2003.directions())
+    data = rng.random((n, n, 5, 7, 3), dtype=np.float32)
+    assert_batched_equals_eval_btf(DenseBTF(data, UBO2003, UBO2003), cl_context, rng)
 
 
 def test_standard_functions_branch_decodes_alike(alu, cl_context, rng, tmp_path, monkeypatch):
