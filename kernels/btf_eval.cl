@@ -107,6 +107,9 @@ __kernel void eval_mlvq(__global const float *q, __global const float *dirs, con
   for (int j = 0; j < MLVQ_BATCH; j++) {
     mlvq_walk_functions(I, F, &w[j]);
   }
+  for (int j = 0; j < MLVQ_BATCH; j++) {
+    mlvq_walk_curves(F, &w[j]);
+  }
   float scale = FTAB(F_VALUE_SCALE);
   for (int j = 0; j < MLVQ_BATCH; j++) {
     float3 value = mlvq_walk_rgb(I, F, &w[j]) * scale;

@@ -169,6 +169,7 @@ typedef struct {
   int4 lum_fn, col_fn;
   float4 s[4];      /* per 2D function: (scale, curve) at α's two nodes */
   float2 k[4];      /* per 2D function: colour slices at α's two nodes */
+  float4 lanes[14]; /* level 4's reads, the four functions as lanes (mlvq_walk_curves) */
 } MLVQWalk;
 
 /* Level 1: the texel holding uv → pdf6 (scale, slot). */
@@ -225,11 +226,10 @@ inline void mlvq_walk_functions(Stream I, Stream F, MLVQWalk *w)
  * eight (Cb, Cr) pairs at β's two nodes → the raw RGB. The four 2D functions are the lanes of
  * float4s: PoCL runs scalar code as written, so the arithmetic is written as vector arithmetic
  * (the same expressions per lane as one function at a time: the same values). */
-__attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
+inline void mlvq_walk_curves(Stream F, MLVQWalk *w)
 {
   const MLVQCell *c = &w->c;
   int pdf1 = c->pdf1 + c->ib - 1, ab = c->fab + 2 * c->ib, nb = c->n_beta;
-  float wa0 = 1.0f - c->wa, wb0 = 1.0f - c->wb;
   Stream c0[4], c1[4], a0[4], a1[4];
   for (int j = 0; j < 4; j++) { /* unrolled: the 16 reads are independent */
     c0[j] = F + pdf1 + (int)w->s[j].y * nb;
@@ -237,17 +237,28 @@ __attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, c
     a0[j] = F + ab + 2 * (int)w->k[j].x * nb;
     a1[j] = F + ab + 2 * (int)w->k[j].y * nb;
   }
+  for (int o = 0; o < 3; o++) {
+    w->lanes[o] = MLVQ_LANES(c0, o);
+    w->lanes[3 + o] = MLVQ_LANES(c1, o);
+  }
+  for (int o = 0; o < 4; o++) {
+    w->lanes[6 + o] = MLVQ_LANES(a0, o);
+    w->lanes[10 + o] = MLVQ_LANES(a1, o);
+  }
+}
+
+__attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
+{
+  const MLVQCell *c = &w->c;
+  float wa0 = 1.0f - c->wa, wb0 = 1.0f - c->wb;
+  const float4 *v = w->lanes;
   float4 sx = (float4)(w->s[0].x, w->s[1].x, w->s[2].x, w->s[3].x);
   float4 sz = (float4)(w->s[0].z, w->s[1].z, w->s[2].z, w->s[3].z);
-  float4 p0m = MLVQ_LANES(c0, 0) * c->hw.x, p00 = MLVQ_LANES(c0, 1) * c->hw.y;
-  float4 p0p = MLVQ_LANES(c0, 2) * c->hw.z;
-  float4 p1m = MLVQ_LANES(c1, 0) * c->hw.x, p10 = MLVQ_LANES(c1, 1) * c->hw.y;
-  float4 p1p = MLVQ_LANES(c1, 2) * c->hw.z;
+  float4 p0m = v[0] * c->hw.x, p00 = v[1] * c->hw.y, p0p = v[2] * c->hw.z;
+  float4 p1m = v[3] * c->hw.x, p10 = v[4] * c->hw.y, p1p = v[5] * c->hw.z;
   float4 lum = wa0 * sx * (p0m + p00 + p0p) + c->wa * sz * (p1m + p10 + p1p);
-  float4 cb = wa0 * (MLVQ_LANES(a0, 0) * wb0 + MLVQ_LANES(a0, 2) * c->wb) +
-              c->wa * (MLVQ_LANES(a1, 0) * wb0 + MLVQ_LANES(a1, 2) * c->wb);
-  float4 cr = wa0 * (MLVQ_LANES(a0, 1) * wb0 + MLVQ_LANES(a0, 3) * c->wb) +
-              c->wa * (MLVQ_LANES(a1, 1) * wb0 + MLVQ_LANES(a1, 3) * c->wb);
+  float4 cb = wa0 * (v[6] * wb0 + v[8] * c->wb) + c->wa * (v[10] * wb0 + v[12] * c->wb);
+  float4 cr = wa0 * (v[7] * wb0 + v[9] * c->wb) + c->wa * (v[11] * wb0 + v[13] * c->wb);
   float4 r, g, b;
 #if !(defined(MLVQ_HDR) && !MLVQ_HDR) /* an LDR material's program: no LogLuv path */
   if (ITAB(H_HDR)) {
@@ -284,6 +295,7 @@ inline float3 mlvq_texel(Stream I, Stream F, const MLVQCell *cp, float2 uv)
   mlvq_walk_texel(I, F, &w, uv);
   mlvq_walk_rows(F, &w);
   mlvq_walk_functions(I, F, &w);
+  mlvq_walk_curves(F, &w);
   return mlvq_walk_rgb(I, F, &w);
 }
 
@@ -523,6 +535,9 @@ inline float3 btf_filtered(Stream I, Stream F, int filter, float2 uv, float3 wi,
     }
     for (int k = 0; k < 4; k++) {
       mlvq_walk_functions(I, F, &walk[k]);
+    }
+    for (int k = 0; k < 4; k++) {
+      mlvq_walk_curves(F, &walk[k]);
     }
     for (int k = 0; k < 4; k++) {
       float w = ((k & 1) ? f.x : 1.0f - f.x) * ((k & 2) ? f.y : 1.0f - f.y);
