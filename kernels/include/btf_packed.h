@@ -329,9 +329,10 @@ inline float ring_pair(Stream F, int theta_off, int n_rings, float theta, int *r
   return (theta - FTAB(theta_off + *r0)) / (FTAB(theta_off + *r1) - FTAB(theta_off + *r0));
 }
 
-/* The four samples around azimuth ``phi`` on rings r0, r1 (ring_pair; wt the weight of r1). */
+/* The four samples around azimuth ``phi`` on rings r0, r1 (ring_pair; wt the weight of r1):
+ * their indices, weights and own azimuths (degrees). */
 inline void ring_azimuth(Stream I, int offsets_off, int r0, int r1, float wt, float phi,
-                         int idx[4], float w[4])
+                         int idx[4], float w[4], float sample_phi[4])
 {
   for (int k = 0; k < 2; k++) {
     int ring = k ? r1 : r0;
@@ -344,30 +345,22 @@ inline void ring_azimuth(Stream I, int offsets_off, int r0, int r1, float wt, fl
     float fl = BTF_FLOOR(pos);
     int s0 = btf_wrap((int)fl, n);
     float wp = pos - fl;
+    int s1 = btf_wrap(s0 + 1, n);
     idx[2 * k] = start + s0;
-    idx[2 * k + 1] = start + btf_wrap(s0 + 1, n);
+    idx[2 * k + 1] = start + s1;
     w[2 * k] = ring_w * (1.0f - wp);
     w[2 * k + 1] = ring_w * wp;
+    sample_phi[2 * k] = (float)s0 * 360.0f / (float)n;
+    sample_phi[2 * k + 1] = (float)s1 * 360.0f / (float)n;
   }
 }
 
 inline void ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int n_rings,
-                         float theta, float phi, int idx[4], float w[4])
+                         float theta, float phi, int idx[4], float w[4], float sample_phi[4])
 {
   int r0, r1;
   float wt = ring_pair(F, theta_off, n_rings, theta, &r0, &r1);
-  ring_azimuth(I, offsets_off, r0, r1, wt, phi, idx, w);
-}
-
-inline float ring_sample_phi(Stream I, int offsets_off, int n_rings, int i)
-{
-  for (int r = 0; r < n_rings; r++) {
-    int start = ITAB(offsets_off + r), end = ITAB(offsets_off + r + 1);
-    if (i < end) {
-      return (float)(i - start) * 360.0f / (float)(end - start);
-    }
-  }
-  return 0.0f;
+  ring_azimuth(I, offsets_off, r0, r1, wt, phi, idx, w, sample_phi);
 }
 
 /* A dense decode's 16 (view, light) samples at one texel: where their RGB lies in F, their
@@ -387,16 +380,16 @@ inline void dense_taps(Stream I, Stream F, float2 uv, float theta_i, float phi_i
   int x = btf_wrap((int)BTF_FLOOR(btf_mod(uv.x, 1.0f) * width), width);
   int y = btf_wrap((int)BTF_FLOOR(btf_mod(uv.y, 1.0f) * height), height);
   int vi[4], li[4];
-  float vw[4], lw[4];
+  float vw[4], lw[4], view_phi[4], light_phi[4];
   int n_view_rings = ITAB(H_N_VIEW_RINGS), n_light_rings = ITAB(H_N_LIGHT_RINGS);
   ring_weights(I, F, ITAB(H_F_VIEW_THETA), ITAB(H_VIEW_OFFSETS), n_view_rings, theta_v, phi_v,
-               vi, vw);
+               vi, vw, view_phi);
   int texel = ITAB(H_F_DATA) + (y * width + x) * 3;
   int l0, l1; /* the light's rings: the same for the four view samples */
   float lt = ring_pair(F, ITAB(H_F_LIGHT_THETA), n_light_rings, theta_i, &l0, &l1);
   for (int a = 0; a < 4; a++) {
-    float view_phi = ring_sample_phi(I, ITAB(H_VIEW_OFFSETS), n_view_rings, vi[a]);
-    ring_azimuth(I, ITAB(H_LIGHT_OFFSETS), l0, l1, lt, phi_i - phi_v + view_phi, li, lw);
+    ring_azimuth(I, ITAB(H_LIGHT_OFFSETS), l0, l1, lt, phi_i - phi_v + view_phi[a], li, lw,
+                 light_phi);
     for (int b = 0; b < 4; b++) {
       /* a view sample of weight 0 (one ring, or the ring's weight exactly 0) adds nothing */
       t->weight[4 * a + b] = vw[a] > 0.0f ? vw[a] * lw[b] : 0.0f;
