@@ -217,13 +217,25 @@ def assert_batched_equals_eval_btf(btf, cl_context, rng, n=1001):
     np.testing.assert_array_equal(outs[1], outs[0])
 
 
-def test_batched_kernel_equals_eval_btf(alu, cl_context, rng):
+@pytest.fixture(params=["cpu", "gpu"])
+def launch(request, monkeypatch):
+    """The batch a CPU launches (8 queries per work-item), or a GPU's (one per work-item, the
+    scalar branch of the batched kernels), whatever the device here."""
+    from btf_addon.cl import evaluate
+
+    if request.param == "gpu":
+        real = evaluate.batched_launch
+        monkeypatch.setattr(evaluate, "batched_launch", lambda b, d: (real(b, d)[0], 1, None))
+    return request.param
+
+
+def test_batched_kernel_equals_eval_btf(alu, cl_context, rng, launch):
     """eval_mlvq (MLVQ_BATCH queries per work-item, levels interleaved) gives eval_btf's values
     bit for bit."""
     assert_batched_equals_eval_btf(alu, cl_context, rng)
 
 
-def test_batched_dense_kernel_equals_eval_btf(cl_context, rng):
+def test_batched_dense_kernel_equals_eval_btf(cl_context, rng, launch):
     """eval_dense (DENSE_BATCH queries per work-item, every tap before any read) gives
     eval_btf's values bit for bit: random values at every (view, light, texel), θ past the
     last measured ring (the grazing factor) and the pole rings included."""
