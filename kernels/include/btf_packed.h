@@ -221,17 +221,17 @@ inline void mlvq_walk_functions(Stream I, Stream F, MLVQWalk *w)
 /* One float of each of the four 2D functions' reads, as the lanes of a float4. */
 #define MLVQ_LANES(p, o) ((float4)((p)[0][o], (p)[1][o], (p)[2][o], (p)[3][o]))
 
-/* Level 4: the eight curves at β (one 3-float read each: p[i−1] is read at i = 0 too, with
- * weight 0; the float stream's header precedes every table, so the read stays inside) and the
- * eight (Cb, Cr) pairs at β's two nodes → the raw RGB. The four 2D functions are the lanes of
- * float4s: PoCL runs scalar code as written, so the arithmetic is written as vector arithmetic
- * (the same expressions per lane as one function at a time: the same values). */
+/* Level 4, the reads: the eight curves at β (one 3-float read each: p[i−1] is read at i = 0
+ * too, with weight 0; the float stream's header precedes every table, so the read stays inside)
+ * and the eight (Cb, Cr) pairs at β's two nodes, kept in the walk with the four 2D functions as
+ * the lanes of float4s. A step of its own, so that a batch's misses are all in flight before
+ * any of its arithmetic (docs/accuracy.md). */
 inline void mlvq_walk_curves(Stream F, MLVQWalk *w)
 {
   const MLVQCell *c = &w->c;
   int pdf1 = c->pdf1 + c->ib - 1, ab = c->fab + 2 * c->ib, nb = c->n_beta;
   Stream c0[4], c1[4], a0[4], a1[4];
-  for (int j = 0; j < 4; j++) { /* unrolled: the 16 reads are independent */
+  for (int j = 0; j < 4; j++) { /* the 16 reads' addresses */
     c0[j] = F + pdf1 + (int)w->s[j].y * nb;
     c1[j] = F + pdf1 + (int)w->s[j].w * nb;
     a0[j] = F + ab + 2 * (int)w->k[j].x * nb;
@@ -247,6 +247,9 @@ inline void mlvq_walk_curves(Stream F, MLVQWalk *w)
   }
 }
 
+/* Level 4, the arithmetic → the raw RGB: four 2D functions at once in float4 lanes, since PoCL
+ * runs scalar code as written; the same expressions per lane as one function at a time, summed
+ * in the same order: the same values. */
 __attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, const MLVQWalk *w)
 {
   const MLVQCell *c = &w->c;
@@ -262,8 +265,10 @@ __attribute__((always_inline)) inline float3 mlvq_walk_rgb(Stream I, Stream F, c
   float4 r, g, b;
 #if !(defined(MLVQ_HDR) && !MLVQ_HDR) /* an LDR material's program: no LogLuv path */
   if (ITAB(H_HDR)) {
-    float3 t0 = btf_logluv_to_rgb(lum.s0, cb.s0, cr.s0), t1 = btf_logluv_to_rgb(lum.s1, cb.s1, cr.s1);
-    float3 t2 = btf_logluv_to_rgb(lum.s2, cb.s2, cr.s2), t3 = btf_logluv_to_rgb(lum.s3, cb.s3, cr.s3);
+    float3 t0 = btf_logluv_to_rgb(lum.s0, cb.s0, cr.s0);
+    float3 t1 = btf_logluv_to_rgb(lum.s1, cb.s1, cr.s1);
+    float3 t2 = btf_logluv_to_rgb(lum.s2, cb.s2, cr.s2);
+    float3 t3 = btf_logluv_to_rgb(lum.s3, cb.s3, cr.s3);
     r = (float4)(t0.x, t1.x, t2.x, t3.x);
     g = (float4)(t0.y, t1.y, t2.y, t3.y);
     b = (float4)(t0.z, t1.z, t2.z, t3.z);
