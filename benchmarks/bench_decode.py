@@ -89,15 +89,17 @@ def materials():
     from btf_addon.core.dense import tabulate
     from btf_addon.core.grid import UBO2003
 
+    loaded = {}
     for name in ("alu", "wallpaper"):
         path = SHARED_BTFBASE / name
         if not path.is_dir():
             print(f"skipping {name}: {path} not found")
             continue
-        btf = MLVQBTF.from_directory(path)
-        yield name, btf
-    if path.is_dir():
-        yield f"{name} (dense 16²)", tabulate(btf, UBO2003, UBO2003, width=16, height=16)
+        loaded[name] = MLVQBTF.from_directory(path)
+        yield name, loaded[name]
+    if "wallpaper" in loaded:
+        dense = tabulate(loaded["wallpaper"], UBO2003, UBO2003, width=16, height=16)
+        yield "wallpaper (dense 16²)", dense
 
 
 def _rate(n: int, seconds: float) -> float:

@@ -113,10 +113,8 @@ __kernel void eval_mlvq(__global const float *q, __global const float *dirs, con
   float scale = FTAB(F_VALUE_SCALE);
   for (int j = 0; j < MLVQ_BATCH; j++) {
     float3 value = mlvq_walk_rgb(I, F, &w[j]) * scale;
-    if (first + j < n) { /* plain stores: PoCL's vstore3 is a call too */
-      out[3 * (first + j)] = value.x;
-      out[3 * (first + j) + 1] = value.y;
-      out[3 * (first + j) + 2] = value.z;
+    if (first + j < n) {
+      btf_st3(out, first + j, value);
     }
   }
 }
@@ -139,9 +137,7 @@ __kernel void eval_dense(__global const float *q, __global const float *dirs, co
   for (int j = 0; j < DENSE_BATCH; j++) {
     float3 value = dense_sum(F, &t[j]);
     if (first + j < n) {
-      out[3 * (first + j)] = value.x;
-      out[3 * (first + j) + 1] = value.y;
-      out[3 * (first + j) + 2] = value.z;
+      btf_st3(out, first + j, value);
     }
   }
 }

@@ -56,6 +56,14 @@ inline float4 btf_ld4(Stream p)
   return (float4)(p[0], p[1], p[2], p[3]);
 }
 
+/* Row i of an (n, 3) float output, by plain stores: PoCL's vstore3 is a call. */
+inline void btf_st3(__global float *out, int i, float3 v)
+{
+  out[3 * i] = v.x;
+  out[3 * i + 1] = v.y;
+  out[3 * i + 2] = v.z;
+}
+
 inline float btf_mod(float x, float m)
 {
   return x - m * BTF_FLOOR(x / m);
@@ -305,9 +313,8 @@ inline float3 mlvq_texel(Stream I, Stream F, const MLVQCell *cp, float2 uv)
 }
 
 /* Angles in degrees, theta <= 90, and wi the unit light direction of (theta_i, phi_i): the
- * original decoder's raw RGB. */
-inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_i, float phi_i,
-                          float theta_v, float phi_v)
+ * original decoder's raw RGB (the light enters as wi only). */
+inline float3 mlvq_decode(Stream I, Stream F, float2 uv, float3 wi, float theta_v, float phi_v)
 {
   MLVQCell c = mlvq_cell(I, F, wi, theta_v, phi_v);
   return mlvq_texel(I, F, &c, uv);
@@ -450,7 +457,7 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   int codec = ITAB(H_CODEC);
 #if HAS_MLVQ
   if (codec == CODEC_MLVQ) {
-    return mlvq_decode(I, F, uv, wi, theta_i, phi_i, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
+    return mlvq_decode(I, F, uv, wi, theta_v, phi_v) * FTAB(F_VALUE_SCALE);
   }
 #endif
 #if HAS_DENSE

@@ -88,7 +88,6 @@ inline int is_view_block(Stream I, float3 wo)
   return base + is_cell(wo, views) * (2 * g * g + 2 * g + 1);
 }
 
-
 /* pdf (solid angle) of the table's wi; `block` from is_view_block. */
 inline float is_pdf(Stream I, Stream F, int block, float3 wi)
 {
