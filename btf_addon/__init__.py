@@ -13,11 +13,15 @@ __version__ = "0.1.0"
 
 def register() -> None:
     from . import blender
+    from .cli import blender_command
 
     blender.register()
+    blender_command.register()  # `blender --command btf …`: the CLI for zip-only installs
 
 
 def unregister() -> None:
     from . import blender
+    from .cli import blender_command
 
+    blender_command.unregister()
     blender.unregister()

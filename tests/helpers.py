@@ -60,16 +60,21 @@ def venv_opencl_vendors(folder: Path) -> dict[str, str]:
     folder in ``folder`` registering this venv's OpenCL drivers by absolute path, as a
     machine's system-wide registration (/etc/OpenCL/vendors) does. pocl-binary-distribution
     registers PoCL only inside the venv's pyopencl, by a bare library name that another
-    pyopencl's loader cannot resolve. Empty where the venv has none."""
+    pyopencl's loader cannot resolve. The system's own registrations are kept beside it
+    (OCL_ICD_VENDORS replaces /etc/OpenCL/vendors): on a CPU newer than the bundled PoCL's
+    LLVM only a system driver builds. Empty where there is neither."""
     spec = importlib.util.find_spec("pyopencl")
-    if spec is None or spec.origin is None:
-        return {}
-    libs = Path(spec.origin).parent / ".libs"
-    icds = sorted(libs.glob("*.icd"))
     folder.mkdir(parents=True, exist_ok=True)
-    for icd in icds:
-        (folder / icd.name).write_text(str(libs / icd.read_text().strip()) + "\n")
-    return {"OCL_ICD_VENDORS": str(folder)} if icds else {}
+    found = False
+    if spec is not None and spec.origin is not None:
+        libs = Path(spec.origin).parent / ".libs"
+        for icd in sorted(libs.glob("*.icd")):
+            (folder / f"venv-{icd.name}").write_text(str(libs / icd.read_text().strip()) + "\n")
+            found = True
+    for icd in sorted(Path("/etc/OpenCL/vendors").glob("*.icd")):
+        (folder / f"system-{icd.name}").write_text(icd.read_text())
+        found = True
+    return {"OCL_ICD_VENDORS": str(folder)} if found else {}
 
 
 def random_queries(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -200,3 +205,16 @@ def count_periods(row: np.ndarray) -> int:
     """Dominant number of periods along a 1D signal (its strongest non-DC frequency)."""
     spectrum = np.abs(np.fft.rfft(row - row.mean()))
     return int(np.argmax(spectrum[1:]) + 1)
+
+
+def building_device_indices() -> list[int]:
+    """Indices (``list_devices()`` order) of this machine's OpenCL devices that build programs:
+    what the tests that loop over every device loop over. A device that cannot build (the
+    bundled PoCL on a CPU newer than its LLVM) is no render target; its verdict and reason
+    are the doctor's to report (tests/kernels/test_device_choice.py)."""
+    from btf_addon.cl.devices import OpenCLUnavailableError, device_report
+
+    try:
+        return [row["index"] for row in device_report() if row["builds"]]
+    except OpenCLUnavailableError:
+        return []

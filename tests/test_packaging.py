@@ -20,6 +20,9 @@ PLATFORM_SUFFIXES = {
 # Packages bundled for one platform only, on purpose: PoCL, the CPU OpenCL driver, exists on PyPI
 # for Linux x86-64 alone (Windows and macOS users get OpenCL from their GPU driver or the OS).
 ONE_PLATFORM = {"pocl_binary_distribution": "linux-x64"}
+# Pure-Python packages cut per platform from a published all-platform wheel by
+# tools/slim_wheels.py: each carries its platform's native loader only.
+PER_PLATFORM_PURE = {"pyopenxr"}
 
 
 def manifest() -> dict:
@@ -52,8 +55,8 @@ def pins(path) -> dict[str, str]:
 def test_every_compiled_wheel_exists_for_each_python_and_platform():
     compiled: dict[tuple[str, str], set[tuple[str, str]]] = defaultdict(set)
     for name, version, python, platform in bundled():
-        if name in ONE_PLATFORM:
-            continue  # test_pocl_is_bundled_for_linux_only
+        if name in ONE_PLATFORM or name in PER_PLATFORM_PURE:
+            continue  # test_pocl_is_bundled_for_linux_only, test_slim_wheels_one_per_platform
         if platform == "any":
             assert python in {"py3", "py2.py3"}, (name, python)
             continue
@@ -75,6 +78,29 @@ def test_pocl_is_bundled_for_linux_only():
     assert len(pocl) == 1, pocl
     _name, _version, python, platform = pocl[0]
     assert python == "py2.py3" and platform.endswith(PLATFORM_SUFFIXES[ONE_PLATFORM[pocl[0][0]]])
+
+
+def test_slim_wheels_one_per_platform():
+    """pyopenxr comes as one derived wheel per platform (tools/slim_wheels.py), each pure
+    Python plus that platform's loader, and every one of them is derived, never fetched."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    from slim_wheels import SLIM
+
+    for name in PER_PLATFORM_PURE:
+        wheels = [w for w in bundled() if w[0] == name]
+        platforms = {
+            p for p, suffix in PLATFORM_SUFFIXES.items() for w in wheels if w[3].endswith(suffix)
+        }
+        assert platforms == set(PLATFORM_SUFFIXES) and len(wheels) == len(platforms), wheels
+        assert all(w[2] == "py3" for w in wheels), wheels
+    derived = [
+        e.rsplit("/", 1)[1]
+        for e in manifest()["wheels"]
+        if e.split("/")[-1].startswith(tuple(PER_PLATFORM_PURE))
+    ]
+    assert sorted(derived) == sorted(SLIM)
 
 
 def test_numpy_is_never_bundled():

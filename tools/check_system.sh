@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Checks the shared libraries that Blender's bpy module and the EGL/OpenGL tests need, and what
-# the OpenXR test runtime is built with.
+# Checks the shared libraries that Blender's bpy module and the EGL/OpenGL tests need, what
+# the OpenXR test runtime is built with, and (Debian/Ubuntu) a CPU OpenCL driver of the system.
 # On Debian/Ubuntu, as root, installs the missing ones (saying which); otherwise prints the
 # apt-get line and fails. Nothing is installed when everything is already present.
 set -euo pipefail
@@ -24,6 +24,13 @@ command -v cc >/dev/null || missing+=(gcc)
 [ -f /usr/include/openxr/openxr_platform.h ] || missing+=(libopenxr-dev)
 [ -f /usr/include/EGL/egl.h ] || missing+=(libegl-dev)
 [ -f /usr/include/GL/gl.h ] || missing+=(libgl-dev)
+# A CPU OpenCL driver registered with the system. The bundled one (pocl-binary-distribution 3.0,
+# LLVM 14, the newest on PyPI) cannot build for CPUs newer than LLVM 14 knows ("unknown target
+# CPU 'generic'", e.g. AMD Zen 5); Debian's PoCL (3.1, LLVM 15) can. The extension chooses the
+# first device that builds a probe program (btf_addon/cl/devices.py), so both may be present.
+if command -v apt-get >/dev/null && ! dpkg -s pocl-opencl-icd >/dev/null 2>&1; then
+  missing+=(pocl-opencl-icd)
+fi
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "system libraries: all present"

@@ -1,8 +1,9 @@
 """Download the wheels that blender_manifest.toml bundles, for every platform it lists.
 
 The manifest's ``wheels`` list is the single source of truth: each entry's file name says the
-package, version and platform tags, and this script asks pip for exactly that file. Files already
-present are kept, so the target is cheap to repeat.
+package, version and platform tags, and this script asks pip for exactly that file, or, for
+the per-platform wheels that tools/slim_wheels.py cuts from a published all-platform one,
+derives it. Files already present are kept, so the target is cheap to repeat.
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ import subprocess
 import sys
 import tomllib
 from pathlib import Path
+
+from slim_wheels import SLIM, fetch_and_derive  # same folder: run as a script
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -48,6 +51,14 @@ def main() -> int:
     missing = [w for w in wheel_paths() if not w.exists()]
     for wheel in missing:
         wheel.parent.mkdir(parents=True, exist_ok=True)
+        if wheel.name in SLIM:  # cut from a published all-platform wheel (tools/slim_wheels.py)
+            print(f"deriving {wheel.name} from {SLIM[wheel.name].source}", flush=True)
+            try:
+                fetch_and_derive(wheel)
+            except subprocess.CalledProcessError:
+                print(f"error: pip could not download {SLIM[wheel.name].source}", file=sys.stderr)
+                return 1
+            continue
         print(f"fetching {wheel.name}", flush=True)
         cmd = [sys.executable, "-m", "pip", "download", "-q", *pip_download_args(wheel)]
         if subprocess.run(cmd, check=False).returncode != 0:

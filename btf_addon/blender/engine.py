@@ -13,8 +13,11 @@ class BTFRenderEngine(bpy.types.RenderEngine):
     bl_label = "BTF"
     # Material previews are drawn by this engine too, so BTF materials preview as they render.
     bl_use_preview = True
-    # render() draws with the gpu module; this gives it a GPU context even in background mode.
-    bl_use_gpu_context = True
+    # No GPU context for render(): F12 ray traces through OpenCL and needs none. Asking for one
+    # made Blender create an EGL context for every render, which prints EGL_BAD_MATCH lines
+    # while it probes configs and aborts the process (libepoxy) where no EGL is usable. The
+    # GLSL fallback makes its own headless context (blender/glsl_fallback.py).
+    bl_use_gpu_context = False
     # Our materials are BTF settings, not node trees: keep Blender's own material UI.
     bl_use_shading_nodes_custom = False
 

@@ -99,6 +99,8 @@ def render(engine, depsgraph) -> None:
                 f"BTF | compiling the render kernels for {cl_context.device_name} "
                 "(first render with these scene features; cached afterwards)",
             )
+        for skipped, why in cl_context.skipped:  # the user's device, or a better one, cannot build
+            engine.report({"WARNING"}, f"OpenCL device {skipped.label} skipped: {why}")
         renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
         # None: the environment's choice (BTF_FIXED_LAUNCHES), as the command line.
         renderer.fixed_launch_split = settings.fixed_launch_split or None
@@ -112,19 +114,18 @@ def render(engine, depsgraph) -> None:
         report_error(engine, compile_error_message(exc))
         return
     except (OpenCLUnavailableError, BTFError) as exc:
-        # The exception's own advice is for a Python prompt (pip): say it in Blender's words.
-        reason = str(exc).split(". Install", 1)[0]
+        # The exception's own advice is for a shell: say it in Blender's words.
         if isinstance(exc, OpenCLUnavailableError):
-            why = f"OpenCL unavailable ({reason})"
+            why = f"OpenCL unavailable ({exc.reason})"
             advice = " ".join(opencl_help().splitlines())
         else:  # OpenCL is there; this scene's data is what it cannot take
-            why, advice = f"The OpenCL final render cannot take this scene ({reason})", ""
+            why, advice = f"The OpenCL final render cannot take this scene ({exc})", ""
         engine.report(
             {"WARNING"},
             f"{why}; rendering with the GLSL viewport path instead "
             f"(no shadows); no Depth/Normal/UV passes. {advice}".rstrip(),
         )
-        last_device = "GLSL fallback (no OpenCL device)"
+        last_device = "GLSL fallback (no OpenCL device that builds)"
         combined = render_glsl(engine, exported, settings, w, h, transparent)
         if combined is not None:  # None: it failed and reported why
             write_result(engine, depsgraph.view_layer, region, {"Combined": combined})

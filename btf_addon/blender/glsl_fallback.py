@@ -1,14 +1,18 @@
-"""F12 without an OpenCL device: the progressive drawer (gl/drawer.py) through Blender's ``gpu``
-module into offscreen buffers (no shadows); the engine has a GPU context in ``render()``."""
+"""F12 without an OpenCL device: the progressive drawer (gl/drawer.py) on a headless moderngl
+context of its own (no shadows). Not Blender's ``gpu`` module: the engine asks Blender for no
+GPU context in ``render()`` (blender/engine.py), so an OpenCL render never needs OpenGL, and
+a machine without a usable EGL gets this fallback's clear error instead of an abort. The
+host's context, where one was current, is current again afterwards (gl/host_context.py)."""
 
 from __future__ import annotations
 
 from ..core.errors import BTFError
-from ..gl.drawer import ViewAccumulation
+from ..gl import host_context
+from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.interface import ShaderCompileError
+from ..gl.moderngl_device import ModernGLDevice
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
-from .gpu_draw import scene_drawer
 
 BATCH = 16  # lights per pass: progress and cancel are checked between passes
 
@@ -19,16 +23,32 @@ def render_glsl(
     """The (h, w, 4) float32 Combined image, row 0 at the bottom (Blender's order), or None
     after reporting why there is none. ``transparent``: Film › Transparent, alpha 0 (premultiplied)
     where no surface was drawn."""
+    with host_context.kept():
+        return _render(engine, exported, settings, w, h, transparent)
+
+
+def _render(engine, exported, settings, w, h, transparent):
     try:
-        drawer = scene_drawer(exported)
+        device = ModernGLDevice()
+    except RuntimeError as exc:  # no usable EGL/OpenGL on this machine
+        engine.report(
+            {"ERROR"},
+            f"GLSL fallback: {exc}. Install Mesa's EGL and DRI drivers (Debian/Ubuntu: "
+            "libegl1 libegl-mesa0 libgl1-mesa-dri) or a GPU driver; nothing rendered",
+        )
+        return None
+    try:
+        drawer = ProgressiveDrawer(device, exported)
     except (BTFError, ShaderCompileError) as exc:
+        device.close()
         engine.report({"ERROR"}, str(exc))
         return None
     cam = exported.camera
     try:
         view = ViewAccumulation(drawer.device, w, h)
-    except Exception as exc:  # Blender's GPUOffScreen raises a bare Exception (size, memory)
+    except Exception as exc:  # a target the driver refuses (size, memory)
         drawer.release()
+        device.close()
         engine.report({"ERROR"}, f"GLSL fallback: no {w}×{h} float buffers on the GPU ({exc})")
         return None
     try:
@@ -48,3 +68,4 @@ def render_glsl(
     finally:
         view.release()
         drawer.release()
+        device.close()

@@ -8,7 +8,7 @@ import bpy
 from bpy.props import EnumProperty, PointerProperty
 from bpy.types import AddonPreferences
 
-from ..cl.devices import best_device_index, list_devices
+from ..cl.devices import device_report
 from . import wiimote_preferences
 from .addon import ADDON_PACKAGE
 
@@ -69,21 +69,24 @@ def missing_source_behaviour() -> str:
 def device_items(_self=None, _context=None) -> list[tuple[str, str, str, int]]:
     global _device_error
     if not _device_items:
-        _device_items.append((AUTOMATIC, "Automatic", "Best GPU, else the CPU", 0))
+        _device_items.append(
+            (AUTOMATIC, "Automatic", "The first that builds: GPU, system CPU driver, bundled", 0)
+        )
         try:
-            devices = list_devices()
+            rows = device_report()  # probes each device once (cached on disk afterwards)
         except RuntimeError as exc:
-            devices = []
+            rows = []
             _device_error = str(exc)
-        best = best_device_index(devices)
-        for i, d in enumerate(devices):
-            label = f"{d.name} ({d.type}, {d.platform})" + (" — default" if i == best else "")
+        for row in rows:
+            status = " — default" if row["used"] else "" if row["builds"] else " — cannot build"
             _device_items.append(
                 (
-                    device_identifier(i),
-                    label,
-                    f"{d.compute_units} compute units, {d.global_memory_mb} MB",
-                    i + 1,
+                    device_identifier(row["index"]),
+                    row["label"] + status,
+                    f"{row['type']}, {row['compute_units']} compute units, "
+                    f"{row['global_memory_mb']} MB"
+                    + ("" if row["builds"] else f"; cannot build programs: {row['reason']}"),
+                    row["index"] + 1,
                 )
             )
     return _device_items
@@ -93,8 +96,9 @@ def opencl_help() -> str:
     """What to install for OpenCL on this system, in a Blender user's words (no pip)."""
     if sys.platform.startswith("linux"):
         return (
-            "The Linux download bundles PoCL, a CPU driver: reinstall the extension if gone.\n"
-            "For GPU renders install your GPU's OpenCL driver (NVIDIA, AMD ROCm, Intel compute)."
+            "The Linux download bundles PoCL, a CPU driver that cannot build on CPUs newer than "
+            "its LLVM 14:\ninstall your distribution's PoCL (Debian/Ubuntu: pocl-opencl-icd, "
+            "Fedora: pocl) or your GPU's OpenCL driver (NVIDIA, AMD ROCm, Intel compute)."
         )
     if sys.platform == "darwin":
         return "macOS provides OpenCL itself; check that nothing blocks the system framework."
@@ -106,7 +110,8 @@ class BTF_AddonPreferences(AddonPreferences):
 
     opencl_device: EnumProperty(
         name="OpenCL Device",
-        description="Device for final renders; Automatic picks the best GPU, else the CPU",
+        description="Device for final renders; Automatic picks the first that builds programs: "
+        "a GPU, else a CPU driver of the system, else the bundled PoCL",
         items=device_items,
     )
     missing_source: EnumProperty(
@@ -140,6 +145,7 @@ class BTF_AddonPreferences(AddonPreferences):
             box.label(text=f"OpenCL unavailable: {_device_error}", icon="ERROR")
             for line in opencl_help().splitlines():
                 box.label(text=line)
+        layout.operator("btf.check_system", icon="SYSTEM")
         layout.prop(self, "missing_source")
         wiimote_preferences.draw(layout, self.wiimote)
 

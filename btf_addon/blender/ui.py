@@ -71,22 +71,27 @@ class BTF_PT_render_settings(Panel):
 
 
 def draw_device(layout) -> None:
-    """Which device F12 renders on: the preferences' choice (Automatic: the best GPU, else the
-    CPU) and what the last render actually used."""
+    """Which device F12 renders on: the preferences' choice where it builds programs, else the
+    first that does (cl/devices.py), and what the last render actually used."""
     from . import final_render, preferences
 
-    items = preferences.device_items()  # cached: OpenCL is queried once per session
+    items = preferences.device_items()  # cached: OpenCL is probed once per session
     chosen = preferences.device_identifier(preferences.preferred_device())
-    label = next((name for ident, name, _d, _n in items if ident == chosen), "Automatic")
-    if chosen == preferences.AUTOMATIC:
-        default = [name for ident, name, _d, _n in items if name.endswith("— default")]
-        label = default[0].removesuffix(" — default") if default else "none found"
+    names = {ident: name for ident, name, _d, _n in items}
+    default = [n.removesuffix(" — default") for n in names.values() if n.endswith(" — default")]
+    label = default[0] if default else None
+    picked = names.get(chosen, "")
+    if chosen != preferences.AUTOMATIC and picked and not picked.endswith(" — cannot build"):
+        label = picked.removesuffix(" — default")
     box = layout.box()
     col = box.column(align=True)
-    if len(items) > 1:
+    if label is not None:
         col.label(text=f"F12 device: {label}", icon="SYSTEM")
+        if picked.endswith(" — cannot build"):
+            col.label(text="The chosen device cannot build programs", icon="ERROR")
     else:
-        col.label(text="F12 device: no OpenCL (GLSL fallback, no shadows)", icon="ERROR")
+        col.label(text="F12 device: none builds (GLSL fallback, no shadows)", icon="ERROR")
+        col.operator("btf.check_system", icon="SYSTEM")
     if final_render.last_device:
         col.label(text=f"Last render: {final_render.last_device}")
 

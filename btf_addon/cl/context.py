@@ -1,12 +1,13 @@
-"""An OpenCL context on the chosen device."""
+"""An OpenCL context on the device chosen by what builds (``devices.choose_device``)."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
-from .devices import OpenCLUnavailableError, best_device_index, list_devices
+from .devices import DeviceInfo, OpenCLUnavailableError, choose_device
 
-__all__ = ["CLContext", "OpenCLUnavailableError", "create_context"]
+__all__ = ["CLContext", "OpenCLUnavailableError", "create_context", "install_advice"]
 
 
 @dataclass
@@ -14,49 +15,44 @@ class CLContext:
     context: object
     queue: object
     device: object
+    info: DeviceInfo | None = None
+    #: Devices tried before this one, each with why it could not build: F12 says so.
+    skipped: tuple[tuple[DeviceInfo, str], ...] = ()
 
     @property
     def device_name(self) -> str:
-        return self.device.name.strip()
+        return self.info.label if self.info is not None else self.device.name.strip()
+
+
+def install_advice() -> str:
+    """What to install for OpenCL on this platform, in words for a Python prompt or a shell."""
+    if sys.platform.startswith("linux"):
+        return (
+            "Install a GPU's OpenCL driver or a CPU driver registered with the system "
+            "(Debian/Ubuntu: sudo apt-get install pocl-opencl-icd; Fedora: sudo dnf install pocl)"
+        )
+    if sys.platform == "darwin":
+        return "macOS provides OpenCL itself; check that nothing blocks the system framework"
+    return "Install your GPU vendor's driver (NVIDIA, AMD or Intel): each includes OpenCL"
 
 
 def create_context(device_index: int | None = None) -> CLContext:
-    """Device ``device_index`` of ``list_devices()``, or the best one (GPU, else CPU)."""
-    try:
-        infos = list_devices()
-    except OpenCLUnavailableError as exc:  # only discovery: compile errors are never "no device"
-        raise OpenCLUnavailableError(
-            f"{exc}. Install a GPU's OpenCL driver or the CPU driver: "
-            "pip install pocl-binary-distribution"
-        ) from None
-    if not infos:
-        from . import programs  # an unwritable cache folder is the usual cause: name it
-
-        raise OpenCLUnavailableError(
-            f"OpenCL is installed but no device is available{programs.cache_diagnosis()}"
-        )
-    index = best_device_index(infos) if device_index is None else device_index
-    if not 0 <= index < len(infos):
-        raise OpenCLUnavailableError(
-            f"no OpenCL device {index}; there are {len(infos)} (0–{len(infos) - 1})"
-        )
-    import pyopencl as cl
-
-    devices = [d for p in cl.get_platforms() for d in _safe_devices(p)]
-    device = devices[index]
-    try:
-        context = cl.Context([device])
-        return CLContext(context, cl.CommandQueue(context), device)
-    except cl.Error as exc:  # listed, but the driver refuses it (busy, out of memory, broken)
-        raise OpenCLUnavailableError(
-            f"OpenCL device {device.name.strip()} could not be opened ({exc})"
-        ) from None
-
-
-def _safe_devices(platform):
+    """A context on device ``device_index`` of ``list_devices()`` where it builds programs, else
+    on the first device of ``devices.candidate_order`` that does (GPU, system CPU driver,
+    bundled PoCL). Raises OpenCLUnavailableError with each device's reason and what to
+    install when none can."""
     import pyopencl as cl
 
     try:
-        return platform.get_devices()
-    except cl.Error:
-        return []
+        choice = choose_device(device_index)
+    except OpenCLUnavailableError as exc:  # only discovery and probes: never a kernel's error
+        raise OpenCLUnavailableError(exc.reason, install_advice()) from None
+    try:
+        context = cl.Context([choice.device])
+        return CLContext(
+            context, cl.CommandQueue(context), choice.device, choice.info, choice.skipped
+        )
+    except cl.Error as exc:  # probed, but the driver refuses it now (busy, out of memory)
+        raise OpenCLUnavailableError(
+            f"OpenCL device {choice.info.label} could not be opened ({exc})"
+        ) from None

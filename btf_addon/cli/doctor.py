@@ -23,12 +23,19 @@ PROBE_TIMEOUT_S = 180
 
 
 def _probe_in_subprocess(name: str) -> dict:
-    """Run one probe in a fresh interpreter (a crashing driver takes only that process down)."""
+    """Run one probe in a fresh interpreter (a crashing driver takes only that process down).
+    It imports ``btf_addon`` as a top-level package from the folder that holds this copy, with
+    this process's package folders (inside Blender: the extension's own site-packages, where
+    its bundled pyopencl lives; Blender's ``bl_ext.…`` package names exist only inside
+    Blender). Only site-packages folders: Blender's scripts/modules holds a ``bpy`` package
+    that would shadow the bpy module in a plain interpreter."""
     package_parent = str(Path(__file__).resolve().parents[2])
+    packages = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages")]
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [package_parent, env.get("PYTHONPATH")]))
-    package = __package__.rsplit(".", 1)[0]
-    code = f"from {package}.diagnostics.probes import run_probe; run_probe({name!r})"
+    env["PYTHONPATH"] = os.pathsep.join(
+        filter(None, [package_parent, env.get("PYTHONPATH"), *packages])
+    )
+    code = f"from btf_addon.diagnostics.probes import run_probe; run_probe({name!r})"
     try:
         proc = subprocess.run(
             [sys.executable, "-c", code],

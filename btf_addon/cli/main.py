@@ -50,7 +50,7 @@ def raise_if_interrupted() -> None:
         raise KeyboardInterrupt
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str = "python -m btf_addon") -> argparse.ArgumentParser:
     from . import (
         accuracy_command,
         bridge_command,
@@ -61,9 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
         render_command,
     )
 
-    parser = argparse.ArgumentParser(
-        prog="python -m btf_addon", description="BTF Materials command-line tools"
-    )
+    parser = argparse.ArgumentParser(prog=prog, description="BTF Materials command-line tools")
     parser.add_argument(
         "-v", "--verbose", action="store_true", help="log progress; tracebacks of internal errors"
     )
@@ -85,12 +83,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, prog: str = "python -m btf_addon") -> int:
+    """Run one command; ``prog`` names the program in usage lines (``blender --command btf``
+    when Blender runs it: cli/blender_command.py)."""
     given = argv if argv is not None else sys.argv[1:]
     verbose = "-v" in given or "--verbose" in given
     previous = _install_sigterm()
     try:
-        return _run(argv)
+        return _run(argv, prog)
     except KeyboardInterrupt as exc:
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
         print(f"{what}: stopped, partial outputs removed", file=sys.stderr)
@@ -125,8 +125,8 @@ def main(argv: list[str] | None = None) -> int:
         _restore_sigterm(previous)
 
 
-def _run(argv: list[str] | None) -> int:
-    parser = build_parser()
+def _run(argv: list[str] | None, prog: str) -> int:
+    parser = build_parser(prog)
     args, extra = parser.parse_known_args(argv)
     if extra and not getattr(args, "accepts_params", False):
         parser.error(f"unrecognized arguments: {' '.join(extra)}")

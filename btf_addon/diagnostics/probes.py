@@ -14,6 +14,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 
+class ProbeFailedError(RuntimeError):
+    """A failed check that still found facts worth reporting (the OpenCL devices that exist
+    when none of them can build): ``run_probe`` puts them beside the error."""
+
+    def __init__(self, message: str, facts: dict):
+        super().__init__(message)
+        self.facts = facts
+
+
 def probe_blender() -> dict:
     if importlib.util.find_spec("bpy") is None:
         raise RuntimeError("the bpy module is not installed")
@@ -27,22 +36,35 @@ def probe_blender() -> dict:
 
 
 def probe_opencl() -> dict:
+    """Every device with its driver, whether it builds the probe program (and why not), and
+    which one F12 uses. Fails (with each device's reason) when none can build."""
     from ..cl import programs
-    from ..cl.devices import best_device_index, list_devices
+    from ..cl.context import install_advice
+    from ..cl.devices import device_report
 
-    devices = list_devices()  # first: it moves unwritable driver caches to temporary folders
+    devices = device_report()  # first: it moves unwritable driver caches to temporary folders
     kernel_cache = str(programs.cache_dir())
     if not devices:
         raise RuntimeError(
             f"OpenCL platforms exist but offer no devices{programs.cache_diagnosis()}"
         )
-    return {
-        "devices": [d.to_json() for d in devices],
-        "default_device": best_device_index(devices),
+    used = [d for d in devices if d["used"]]
+    facts = {
+        "devices": devices,
+        "default_device": used[0]["index"] if used else None,
+        "f12_device": used[0]["label"] if used else None,
         "kernel_cache": kernel_cache,
         # Folder → why it could not be written; a temporary folder was used instead.
         "unwritable_cache_folders": dict(programs.unwritable_folders),
     }
+    if not used:
+        reasons = "; ".join(f"{d['label']}: {d['reason']}" for d in devices)
+        raise ProbeFailedError(
+            f"no OpenCL device can build programs ({reasons}); F12 draws through the GLSL path. "
+            f"{install_advice()}",
+            facts,
+        )
+    return facts
 
 
 def probe_opengl() -> dict:
@@ -111,8 +133,9 @@ PROBES: dict[str, Probe] = {
         Probe(
             "opencl",
             probe_opencl,
-            "Install a GPU vendor's OpenCL driver, or the CPU driver from PyPI: "
-            "pip install pocl-binary-distribution; final renders need OpenCL.",
+            "Install a GPU vendor's OpenCL driver, or a CPU driver: Debian/Ubuntu "
+            "apt-get install pocl-opencl-icd, else pip install pocl-binary-distribution (LLVM 14: "
+            "not for CPUs newer than it knows); final renders need OpenCL.",
         ),
         Probe(
             "opengl",
@@ -151,5 +174,6 @@ def run_probe(name: str) -> None:
     try:
         line = json.dumps({"ok": True, **PROBES[name].check()})
     except Exception as exc:  # report any failure as data: the doctor must never crash
-        line = json.dumps({"ok": False, "error": f"{type(exc).__name__}: {exc}"})
+        facts = exc.facts if isinstance(exc, ProbeFailedError) else {}
+        line = json.dumps({"ok": False, "error": f"{type(exc).__name__}: {exc}", **facts})
     sys.stdout.write("\n" + RESULT_MARKER + line + "\n")

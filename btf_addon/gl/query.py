@@ -7,10 +7,13 @@ inside Blender (btf_addon/blender/gpu_query.py); tests compare both with the num
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from ..core.model import BTF, DelegatingBTF, Queries
 from ..core.packed import pack
+from . import host_context
 from .interface import QUERY_SHADER, ShaderCompileError
 
 QUERY_TILE = 1024  # queries per row of the query textures / render target
@@ -30,19 +33,27 @@ def query_textures(q: Queries) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]
 
 
 def create_gl_context():
+    """A headless moderngl context: EGL on Linux (no display needed), the platform's own
+    elsewhere. It is current afterwards; a host's context it displaced is remembered
+    (gl/host_context.py) and given back at exit."""
     import moderngl
 
+    backend = {"backend": "egl"} if sys.platform.startswith("linux") else {}
+    host_context.before_ours()
     try:
-        return moderngl.create_standalone_context(backend="egl")
+        ctx = moderngl.create_standalone_context(**backend)
     except Exception as exc:  # glcontext raises plain Exceptions
         raise RuntimeError(f"no headless OpenGL context through EGL ({exc})") from None
+    host_context.mark_ours()
+    return ctx
 
 
 def make_current(ctx) -> None:
     """Make ``ctx`` the current OpenGL context. moderngl sends every call to whichever context
     is current, so each user of a context makes it current before its work. moderngl's own
     ``with ctx`` is not used: its exit leaves no context current, which Blender's own drawing
-    (epoxy) aborts on."""
+    (epoxy) aborts on; a host context displaced here is given back at exit."""
+    host_context.before_ours()
     ctx.mglo.__enter__()
 
 

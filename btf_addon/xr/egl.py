@@ -15,6 +15,8 @@ import ctypes
 import ctypes.util
 import threading
 
+from ..gl import host_context
+
 EGL_DEFAULT_DISPLAY = 0
 EGL_NO_CONTEXT = 0
 EGL_NO_SURFACE = 0
@@ -120,6 +122,8 @@ class EGLContext:
         # libEGL's exported eglGetProcAddress itself (the address, for the runtime to call).
         self.get_proc_address = ctypes.cast(lib.eglGetProcAddress, ctypes.c_void_p).value
         self._ctx = None
+        # Blender's context where one is current on this thread: given back on release.
+        self._host = host_context.current()
         self.make_current()
 
     def _display(self) -> int:
@@ -147,12 +151,17 @@ class EGLContext:
 
     def make_current(self) -> None:
         """Current on the calling thread, with no surface (drawing goes to framebuffers)."""
+        host_context.before_ours()
         if not self._lib.eglMakeCurrent(self.display, EGL_NO_SURFACE, EGL_NO_SURFACE, self.context):
             self._fail("eglMakeCurrent (surfaceless)")
+        host_context.mark_ours()
 
     def release(self) -> None:
-        """No context current on the calling thread."""
+        """Not current any more: the host's context (Blender's, where one was current when
+        this one was made on this thread) is current again, else none (gl/host_context.py)."""
         self._lib.eglMakeCurrent(self.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT)
+        if self._host is not None and threading.get_ident() == self.thread:
+            host_context.restore(self._host)
 
     @property
     def ctx(self):

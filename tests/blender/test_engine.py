@@ -1,6 +1,6 @@
 """The BTF render engine inside Blender: F12 through OpenCL (against the same renderer run on
-the exported scene), its GLSL fallback through the gpu module (against the standalone moderngl
-renderer, same shaders), passes, errors."""
+the exported scene), its GLSL fallback (the drawer on a moderngl context of its own, against
+the standalone moderngl renderer), the device choice by what builds, passes, errors."""
 
 from __future__ import annotations
 
@@ -84,15 +84,15 @@ def test_f12_without_opencl_falls_back_to_glsl(
         "GLSL viewport path instead (no shadows)"
     ) in blender_output(capfd)
     assert rendered.shape == reference.shape
-    # Same shaders, same data, two OpenGL pipelines (Blender's and moderngl's): agreement to
+    # Same shaders, same data, the same drawer on two moderngl contexts: agreement to
     # single-precision rounding.
     assert np.abs(rendered - reference).max() < 1e-3 * reference.max()
     assert rendered[32, 48].max() > 0.05  # the sphere is there and lit
 
 
 def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_path, without_opencl):
-    """Blender's gpu pipeline binds the light texture as moderngl's does: F12's GLSL fallback
-    with a point and a spot light equals the standalone renderer, and the lights show."""
+    """F12's GLSL fallback with a point and a spot light equals the standalone renderer, and
+    the lights show."""
     from btf_addon.core.analytic import GGXBTF
 
     bpy = bpy_module
@@ -112,7 +112,8 @@ def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_pat
 
 def test_f12_glsl_fallback_with_measured_btf(bpy_module, fresh_scene, tmp_path, without_opencl):
     """With nearest-texel BTF lookups, pixels exactly on texel edges may pick the neighbour in
-    one pipeline and not the other: allow 5% of pixels to differ, the rest must agree."""
+    one draw and not the other (the fallback draws 16 lights per pass with film jitter): allow
+    5% of pixels to differ, the rest must agree."""
     scene = sphere_on_ground(bpy_module, tmp_path, shared_material("alu"))
     rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
     differs = np.abs(rendered - reference).max(axis=2) > 1e-3 * reference.max()
@@ -304,3 +305,83 @@ def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
     bpy_module.ops.render.render(write_still=True)
     bounced = read_exr(tmp_path / "f12.exr")
     assert bounced.mean() > direct.mean() * 1.01
+
+
+@pytest.fixture
+def injected_probes(monkeypatch, tmp_path):
+    """The installed extension's device probe, answered per device: ``fail(pred, reason)``
+    makes the probe of each listed device for which ``pred(info)`` holds fail with ``reason``,
+    as the bundled PoCL does on a CPU newer than its LLVM (cl/devices.py). Verdicts are cached
+    in a folder of this test's own."""
+    devices = extension_submodule("btf_addon.cl.devices")
+    programs = extension_submodule("btf_addon.cl.programs")
+    monkeypatch.setattr(programs, "_cache_dir_setting", tmp_path / "cl-cache")
+    monkeypatch.setattr(devices, "_verdicts", {})
+    rules = []
+    real_probe = devices.probe
+
+    def probe(info, device):
+        for pred, reason in rules:
+            if pred(info):
+                return devices.Verdict(False, reason)
+        return real_probe(info, device)
+
+    monkeypatch.setattr(devices, "probe", probe)
+    return lambda pred, reason: rules.append((pred, reason))
+
+
+TOO_NEW = "error: unknown target CPU 'generic'"
+
+
+def test_f12_skips_a_device_that_cannot_build_and_says_so(
+    bpy_module, fresh_scene, tmp_path, injected_probes, monkeypatch, capfd
+):
+    """A GPU listed first (so tried first) cannot build: F12 ray traces on the device that
+    would have been used without it, with one warning naming the skipped device and the
+    compiler's reason."""
+    from btf_addon.core.analytic import GGXBTF
+
+    devices = extension_submodule("btf_addon.cl.devices")
+    try:
+        real = devices.discover()
+        used = [row for row in devices.device_report() if row["used"]]
+    except devices.OpenCLUnavailableError as exc:
+        pytest.skip(f"no OpenCL ({exc})")
+    if not used:
+        pytest.skip("no OpenCL device here builds programs")
+    fake = devices.DeviceInfo(
+        platform="Injected", name="Injected GPU", type="GPU", compute_units=999,
+        global_memory_mb=1024, opencl_version="OpenCL 3.0", driver="FakeCL 1.0",
+    )  # fmt: skip
+    monkeypatch.setattr(devices, "discover", lambda: [(fake, object()), *real])
+    injected_probes(lambda info: info == fake, TOO_NEW)
+    write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
+    scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    blender_output(capfd)
+    rendered, reference = f12_and_reference(bpy_module, scene, tmp_path)
+    out = blender_output(capfd)
+    assert f"Warning: OpenCL device Injected GPU (FakeCL 1.0) skipped: {TOO_NEW}" in out, out
+    final_render = extension_submodule("btf_addon.blender.final_render")
+    assert final_render.last_device == f"OpenCL on {used[0]['label']}"
+    np.testing.assert_allclose(rendered, reference, rtol=1e-5, atol=1e-6)
+
+
+def test_f12_when_no_device_builds_draws_glsl_with_one_warning(
+    bpy_module, fresh_scene, tmp_path, injected_probes, capfd
+):
+    """Every device fails its probe (a machine whose only driver is the bundled PoCL on a too
+    new CPU): F12 draws through the GLSL path, the same image as the standalone renderer, with
+    one warning that names each device's reason and what to install."""
+    from btf_addon.core.analytic import GGXBTF
+
+    injected_probes(lambda info: True, TOO_NEW)
+    write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
+    scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
+    blender_output(capfd)
+    rendered, reference = f12_and_reference(bpy_module, scene, tmp_path, engine="glsl")
+    warnings = [line for line in blender_output(capfd).splitlines() if "OpenCL" in line]
+    assert len(warnings) == 1, warnings
+    assert "no OpenCL device can build programs" in warnings[0] and TOO_NEW in warnings[0]
+    assert "pocl-opencl-icd" in warnings[0]  # what to install (Linux)
+    assert np.abs(rendered - reference).max() < 1e-3 * reference.max()
+    assert extension_submodule("btf_addon.blender.final_render").last_device.startswith("GLSL")

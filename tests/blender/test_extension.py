@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import sys
 import zipfile
 
@@ -99,3 +100,25 @@ def test_check_system_reports_every_probe(bpy_module, installed, capfd, monkeypa
             assert ok or (missing and found[0].endswith(probe.hint)), found[0]
     openexr = next(line for line in lines if line.startswith("Warning: openexr: missing ("))
     assert "(ModuleNotFoundError: import of OpenEXR halted" in openexr, openexr
+
+
+def test_check_system_is_found_and_lists_every_opencl_device(bpy_module, installed, capfd):
+    """Check System is where users look (F3 search, Render menu, the add-on's preferences:
+    not INTERNAL) and says, per OpenCL device, whether it builds and which one F12 uses."""
+    bpy = bpy_module
+    op = extension_submodule("btf_addon.blender.operators").BTF_OT_check_system
+    assert "INTERNAL" not in getattr(op, "bl_options", set())  # F3 search finds it
+    draws = [f.__name__ for f in bpy.types.TOPBAR_MT_render._dyn_ui_initialize()]
+    assert "_render_menu" in draws
+    prefs = extension_submodule("btf_addon.blender.preferences").BTF_AddonPreferences
+    assert "btf.check_system" in inspect.getsource(prefs.draw)
+    report = extension_submodule("btf_addon.cl.devices").device_report()
+    capfd.readouterr()
+    assert bpy.ops.btf.check_system() == {"FINISHED"}
+    lines = [line for line in capfd.readouterr().out.splitlines() if "opencl device: " in line]
+    assert len(lines) == len(report), lines
+    for row, line in zip(report, lines, strict=True):
+        assert row["label"] in line
+        assert ("builds" in line) == row["builds"] and ("F12 renders on this one" in line) == row[
+            "used"
+        ]

@@ -110,6 +110,31 @@ def test_hidden_opencl_drivers_are_reported_missing(report):
     assert "pocl" in opencl["how_to_fix"]
 
 
+def test_only_the_bundled_driver_visible_reports_whether_it_builds(tmp_path):
+    """An empty OCL_ICD_VENDORS folder leaves only the PoCL bundled with pyopencl: the report
+    names it as bundled with its driver version and says whether it builds. Where it cannot
+    (a CPU newer than its LLVM 14) the probe fails with the compiler's reason and the device
+    list is still there; where it can, F12 uses it."""
+    empty = tmp_path / "vendors"
+    empty.mkdir()
+    proc = subprocess.run(
+        [sys.executable, "-c", "from btf_addon.diagnostics.probes import run_probe; "
+         "run_probe('opencl')"],
+        cwd=ROOT, env=cli_env(OCL_ICD_VENDORS=str(empty), OCL_ICD_FILENAMES=""),
+        capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    result = read_probe_output(proc)
+    devices = result["devices"]
+    assert len(devices) == 1 and devices[0]["bundled"], result
+    bundled = devices[0]
+    assert bundled["label"].endswith(", bundled)") and "PoCL 3.0" in bundled["label"]
+    if bundled["builds"]:
+        assert result["ok"] and result["f12_device"] == bundled["label"] and bundled["used"]
+    else:
+        assert not result["ok"] and result["f12_device"] is None and not bundled["used"]
+        assert bundled["reason"] in result["error"] and "pocl-opencl-icd" in result["error"]
+
+
 def test_a_probe_that_succeeds_reports_its_facts(report):
     assert report["openxr"]["ok"] is True
     assert report["openxr"]["pyopenxr"] == "0.0-shadow"

@@ -4,22 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import random_queries
+from helpers import building_device_indices, random_queries
 from svd_cases import svd_cases
-
-from btf_addon.cl.devices import list_devices
 
 pytestmark = pytest.mark.opencl
 
 
-def _device_indices():
-    try:
-        return list(range(len(list_devices())))
-    except RuntimeError:
-        return []
-
-
-@pytest.mark.parametrize("device_index", _device_indices() or [None])
+@pytest.mark.parametrize("device_index", building_device_indices() or [None])
 @pytest.mark.parametrize("case", ["yuv", "log-rgb", "rotated-rings"])
 def test_opencl_svd_matches_numpy_within_1_255(device_index, case, rng):
     """|OpenCL − numpy| ≤ 1/255 of a white reflectance factor (value × π), the LDR step the

@@ -54,6 +54,10 @@ class EGLContext:
     display: int
     config: int
     context: int
+    # What was current on this thread before (display, draw, read, context), e.g. Blender's
+    # context in a bpy process: given back on release, as a guest app should, since Blender's
+    # exit frees its GPU resources assuming its context is current (libepoxy aborts otherwise).
+    previous: tuple | None = None
 
     def binding(self) -> XrGraphicsBindingEGLMNDX:
         get_proc = ctypes.cast(self.lib.eglGetProcAddress, ctypes.c_void_p).value
@@ -72,6 +76,8 @@ class EGLContext:
 
     def release_current(self) -> None:
         self.lib.eglMakeCurrent(self.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT)
+        if self.previous is not None:
+            self.lib.eglMakeCurrent(*self.previous)
 
     def destroy(self) -> None:
         self.release_current()
@@ -113,6 +119,17 @@ def create_egl_context() -> EGLContext:
     egl.eglDestroyContext.argtypes = [vp, vp]
     egl.eglGetError.restype = ctypes.c_int32
     egl.eglGetCurrentContext.restype = vp
+    egl.eglGetCurrentDisplay.restype = vp
+    egl.eglGetCurrentSurface.restype = vp
+    egl.eglGetCurrentSurface.argtypes = [ctypes.c_int32]
+    previous = None
+    if egl.eglGetCurrentContext():
+        previous = (
+            egl.eglGetCurrentDisplay(),
+            egl.eglGetCurrentSurface(0x3059),  # EGL_DRAW
+            egl.eglGetCurrentSurface(0x305A),  # EGL_READ
+            egl.eglGetCurrentContext(),
+        )
 
     display = None
     get_platform_display = egl.eglGetProcAddress(b"eglGetPlatformDisplayEXT")
@@ -150,7 +167,7 @@ def create_egl_context() -> EGLContext:
     )
     if not context:
         raise EGLError(f"eglCreateContext(3.3 core) failed (0x{egl.eglGetError():x})")
-    ctx = EGLContext(egl, display, config.value, context)
+    ctx = EGLContext(egl, display, config.value, context, previous)
     ctx.make_current()
     return ctx
 
