@@ -16,7 +16,7 @@ import sys
 import tempfile
 
 import pytest
-from helpers import cli_env, run_cli
+from helpers import cli_env, read_png, run_cli
 
 SCRIPT = r"""
 import contextlib, importlib, io, json, sys
@@ -119,10 +119,9 @@ def test_same_messages_as_python_m(both):
 def test_same_render_and_doctor_verdicts(both):
     folder, _jobs, blender, python = both
     import numpy as np
-    from PIL import Image
 
-    a = np.asarray(Image.open(folder / "blender.png"))
-    b = np.asarray(Image.open(folder / "python.png"))
+    a = read_png(folder / "blender.png")
+    b = read_png(folder / "python.png")
     assert a.shape == b.shape == (18, 32, 4)
     assert np.array_equal(a, b)  # same code, same device, same lights: the same pixels
     doctor_b = json.loads(blender["runs"][5]["stdout"])
