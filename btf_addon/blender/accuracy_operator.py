@@ -30,6 +30,7 @@ from .accuracy_run import prepare, set_up
 from .addon import ENGINE_ID
 from .background_job import BackgroundJobModal
 from .preferences import preferred_device
+from .sync import render_settings
 
 log = logging.getLogger(__name__)
 
@@ -253,7 +254,7 @@ def recommended_settings(scene) -> RenderSettings | None:
     rec = json.loads(text).get("recommendation")
     if rec is None:
         return None
-    current = RenderSettings.from_properties(scene.btf_render)
+    current = render_settings(scene)
     return settings_from_json(rec["knobs"], current)
 
 

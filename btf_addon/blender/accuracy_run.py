@@ -27,6 +27,7 @@ from ..render.settings import RenderSettings
 from ..scene.analysis import analyse
 from ..scene.scene import Scene
 from .export import export_scene
+from .sync import frame_size, render_settings
 
 #: The preview's longest side in pixels: small enough that a ladder of ~13 rungs plus the
 #: reference takes seconds to a minute on a CPU, large enough for the error maps to show where.
@@ -39,15 +40,6 @@ def preview_size(full: tuple[int, int], longest: int = PREVIEW_LONGEST) -> tuple
     w, h = full
     k = min(1.0, longest / max(w, h))
     return max(1, round(w * k)), max(1, round(h * k))
-
-
-def full_size(scene) -> tuple[int, int]:
-    """The scene's render size in pixels, as F12 computes it."""
-    pct = scene.render.resolution_percentage / 100
-    return (
-        max(1, int(scene.render.resolution_x * pct)),
-        max(1, int(scene.render.resolution_y * pct)),
-    )
 
 
 class LadderRenderer:
@@ -147,7 +139,7 @@ def prepare(
     scene = depsgraph.scene
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to estimate from")
-    base = RenderSettings.from_scene(scene)  # with the film filter of scene.cycles
+    base = render_settings(scene)  # with the film filter of scene.cycles
     filters = {m.btf.texel_filter for m in bpy.data.materials if m.btf.enabled}
     # The texel filter knob only where BTF materials exist, starting from the scene's own
     # filter where they share one.
@@ -160,7 +152,7 @@ def prepare(
             "no quality knob applies: the scene is lit by the headlight (one deterministic "
             "light); set Lighting to Environment"
         )
-    full = full_size(scene)
+    full = frame_size(scene.render)  # as F12 sizes the frame
     preview = preview_size(full, longest)
     t0 = time.perf_counter()
     exported = export_scene(depsgraph, *preview)

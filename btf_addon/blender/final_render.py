@@ -23,12 +23,12 @@ from ..cl.programs import OpenCLCompileError, is_cached
 from ..cl.renderer import KERNELS, CLRenderer
 from ..core.errors import BTFError
 from ..render.lighting import frame_lights
-from ..render.settings import RenderSettings
 from ..scene.analysis import analyse
 from .export import export_scene
 from .glsl_fallback import render_glsl
 from .paths import missing_message, missing_sources, with_error_colour
 from .preferences import MISSING_FAIL, missing_source_behaviour, opencl_help, preferred_device
+from .sync import frame_size, render_settings
 
 #: What the last F12 rendered on, for the render panel: "OpenCL on <device>" or the fallback.
 last_device = ""
@@ -48,15 +48,6 @@ class Region(NamedTuple):
         return bottom_first[self.y : self.y + self.h, self.x : self.x + self.w]
 
 
-def frame_size(render) -> tuple[int, int]:
-    """The frame in pixels as Blender computes it (integer percentage, as render_pipeline)."""
-    pct = render.resolution_percentage
-    return (
-        max(1, render.resolution_x * pct // 100),
-        max(1, render.resolution_y * pct // 100),
-    )
-
-
 def render_region(render, w: int, h: int) -> Region:
     """The part of the w × h frame Blender's result covers: with Render Region on, Blender sizes
     the result to the region, whose corners it computes as float(border) · int(size) truncated
@@ -73,7 +64,7 @@ def render_region(render, w: int, h: int) -> Region:
 def render(engine, depsgraph) -> None:
     global last_device
     scene = depsgraph.scene
-    settings = RenderSettings.from_scene(scene)  # with the film filter of scene.cycles
+    settings = render_settings(scene)  # with the film filter of scene.cycles
     w, h = frame_size(scene.render)
     region = render_region(scene.render, w, h)
     transparent = scene.render.film_transparent

@@ -45,6 +45,7 @@ from ..gl.stereo_capture import (
 from ..render.headsets import PROFILES, profile
 from ..render.settings import RenderSettings
 from .export import export_scene
+from .sync import render_settings
 
 #: Blender's image settings for an 8-bit RGB PNG (what ``render`` sets for a .png, less alpha:
 #: a capture has none).
@@ -107,7 +108,7 @@ def capture_scene(
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to capture from")
     if settings is None:
-        settings = RenderSettings.from_scene(scene)  # with the film filter, as F12
+        settings = render_settings(scene)  # with the film filter, as F12
     exported = export_scene(depsgraph, sized.eye_width, sized.eye_height)
     capture = render_stereo(exported, settings, sized, device)
     capture.messages = list(exported.messages)

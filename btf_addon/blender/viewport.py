@@ -15,9 +15,9 @@ from ..core.errors import BTFError
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.interface import ShaderCompileError
 from ..render.lighting import frame_lights
-from ..render.settings import RenderSettings
 from .export import ExportCache, changed_ids, export_scene
 from .gpu_draw import BlenderGPUDevice
+from .sync import render_settings
 
 
 class ViewportState:
@@ -60,7 +60,7 @@ def view_draw(engine, context, depsgraph) -> None:
     state = _state(engine)
     region, rv3d = context.region, context.region_data
     scene = depsgraph.scene
-    settings = RenderSettings.from_scene(scene)  # with the film filter (jitter per pass)
+    settings = render_settings(scene)  # with the film filter (jitter per pass)
     size = (region.width, region.height)
     if state.scene_dirty or state.drawer is None:
         try:

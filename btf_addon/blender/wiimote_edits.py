@@ -390,10 +390,28 @@ def screenshot(ctx: EditContext) -> str:
 
 
 # --------------------------------------------------------------------- entry
-def lights_range(settings) -> tuple[int, int]:
-    """``lights_per_redraw``'s limits, as the property declares them."""
-    prop = settings.bl_rna.properties["lights_per_redraw"]
-    return prop.hard_min, prop.hard_max
+def lights_range(settings, name: str = "lights_per_redraw") -> tuple[int, int]:
+    """The limits of ``settings.<name>`` as the property declares them (soft max where it
+    has one: the panel's slider end)."""
+    prop = settings.bl_rna.properties[name]
+    high = prop.soft_max if prop.soft_max < prop.hard_max else prop.hard_max
+    return prop.hard_min, high
+
+
+def step_lights(ctx: EditContext, step: int) -> str:
+    """Lights per frame of the display being looked at: in Blender's VR session the headset's
+    (``scene.btf_vr``: its fixed count, switched from the frame budget, whose K the user can
+    no longer steer by hand), else the viewport's lights per redraw (``scene.btf_render``)."""
+    vr = getattr(ctx.scene, "btf_vr", None)
+    if vr is not None and ctx.xr() is not None:
+        low, high = lights_range(vr, "lights_per_frame")
+        vr.lights_mode = "FIXED"
+        vr.lights_per_frame = min(high, max(low, vr.lights_per_frame + step))
+        return f"VR lights per frame {vr.lights_per_frame} (fixed)"
+    settings = ctx.scene.btf_render
+    low, high = lights_range(settings)
+    settings.lights_per_redraw = min(high, max(low, settings.lights_per_redraw + step))
+    return f"lights per redraw {settings.lights_per_redraw}"
 
 
 def apply_edit(ctx: EditContext, edit: Edit) -> str:
@@ -420,10 +438,7 @@ def apply_edit(ctx: EditContext, edit: Edit) -> str:
     elif a in (Action.ZOOM_IN, Action.ZOOM_OUT):
         zoom(ctx, amount if a is Action.ZOOM_IN else -amount)
     elif a in (Action.LIGHTS_MORE, Action.LIGHTS_FEWER):
-        step = round(amount) * (1 if a is Action.LIGHTS_MORE else -1)
-        low, high = lights_range(settings)
-        settings.lights_per_redraw = min(high, max(low, settings.lights_per_redraw + step))
-        return f"lights per redraw {settings.lights_per_redraw}"
+        return step_lights(ctx, round(amount) * (1 if a is Action.LIGHTS_MORE else -1))
     elif a in (Action.EXPOSURE_UP, Action.EXPOSURE_DOWN):
         materials = exposure_materials(ctx)
         for material in materials:

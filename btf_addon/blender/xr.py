@@ -43,11 +43,11 @@ from ..gl.hud import HudDrawer
 from ..gl.interface import ShaderCompileError
 from ..render.frame_budget import FrameBudget
 from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
-from ..render.settings import RenderSettings
 from ..render.stereo import EyeId, EyeIdentifier
 from . import wiimote_overlay
 from .export import ExportCache, changed_ids, export_scene
 from .gpu_draw import BlenderGPUDevice
+from .sync import render_settings
 
 # Into the eye's framebuffer: no depth written (Blender's depth there is its own), opaque or
 # premultiplied "over" Blender's image when the World is left out.
@@ -146,7 +146,7 @@ class XRPreview:
         depsgraph = self.source.depsgraph()
         scene = depsgraph.scene
         vr = VRSettings.from_properties(scene.btf_vr)
-        settings = replace(RenderSettings.from_scene(scene), progressive=True)
+        settings = replace(render_settings(scene), progressive=True)
         settings = replace(settings, lights_total=vr.lights_total)
         clip_from_view = np.asarray(clip_from_view, dtype=np.float64)
         view_from_world = np.asarray(view_from_world, dtype=np.float64)

@@ -25,8 +25,8 @@ from bpy.types import Operator, Panel, PropertyGroup
 from ..controllers.actions import ACTION_LABELS
 from ..core.errors import BTFError
 from ..render.headsets import PROFILES
-from ..render.settings import RenderSettings
 from .export import ExportCache, changed_ids, export_scene
+from .sync import bridge_settings, render_settings
 from .wiimote_edits import EditContext, EditSkipped, apply_edit
 
 # Export size: the bridge draws at the headset's eye size; the exported camera is unused.
@@ -67,20 +67,6 @@ class BTFBridgeSettings(PropertyGroup):
     @classmethod
     def unregister(cls) -> None:
         del bpy.types.Scene.btf_bridge
-
-
-def bridge_settings(props):
-    from ..xr.bridge import BridgeSettings
-
-    return BridgeSettings(
-        lights_total=props.lights_total,
-        exposure=props.exposure,
-        resolution_scale=props.resolution_scale,
-        budget_s=props.frame_budget_ms / 1e3 if props.frame_budget_ms > 0 else None,
-        profile=props.profile,
-        show_hud=props.show_hud,
-        placement="camera",  # the head starts at the scene camera, as in Blender's VR session
-    )
 
 
 def control_map():
@@ -153,8 +139,9 @@ class BridgeController:
 
         exported = export_scene(self._depsgraph(), *EXPORT_SIZE, cache=self.cache, viewport=True)
         self.messages = list(exported.messages)
-        settings = RenderSettings.from_properties(self.scene.btf_render)
-        options = bridge_settings(self.scene.btf_bridge)
+        # With the scene's film filter, as F12 and Blender's VR session (blender/sync.py).
+        settings = render_settings(self.scene)
+        options = bridge_settings(self.scene)
         if self._make_bridge is not None:
             self.bridge = self._make_bridge(exported, settings, options)
         else:

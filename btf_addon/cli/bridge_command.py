@@ -14,7 +14,6 @@ from pathlib import Path
 
 from ..core.errors import BTFError
 from ..render.headsets import PROFILES
-from ..render.settings import RenderSettings
 
 DESCRIPTION = """\
 Run the XTAL bridge on a .blend's active scene against the OpenXR runtime the loader finds
@@ -165,15 +164,14 @@ def export_blend(path: Path) -> tuple:
     with _engine_registered(bpy):
         bpy.ops.wm.open_mainfile(filepath=str(path.resolve()))
         from ..blender.export import export_scene
+        from ..blender.sync import frame_size, render_settings
 
         blender_scene = bpy.context.scene
         if blender_scene.camera is None:
             raise BTFError(f"the scene {blender_scene.name!r} has no camera: the bridge "
                            "places the viewer at the scene camera")  # fmt: skip
-        settings = RenderSettings.from_properties(blender_scene.btf_render)
+        # With the scene's film filter, as F12 and Blender's VR session (blender/sync.py).
+        settings = render_settings(blender_scene)
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        pct = blender_scene.render.resolution_percentage / 100
-        w = max(1, int(blender_scene.render.resolution_x * pct))
-        h = max(1, int(blender_scene.render.resolution_y * pct))
-        scene = export_scene(depsgraph, w, h)
+        scene = export_scene(depsgraph, *frame_size(blender_scene.render))
     return scene, settings

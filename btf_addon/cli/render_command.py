@@ -285,6 +285,7 @@ def cmd_render(args) -> int:
         import bpy
     except ImportError:
         raise BTFError("rendering needs Blender's bpy module (pip install bpy==5.0.1)") from None
+    from ..blender.sync import frame_size
 
     with _engine_registered(bpy) as package:
         if args.demo:
@@ -302,12 +303,7 @@ def cmd_render(args) -> int:
         if args.stereo:
             return _render_stereo(bpy, scene, args)
         settings = prepare_scene(scene, args)
-        pct = scene.render.resolution_percentage / 100
-        _check_memory(
-            int(scene.render.resolution_x * pct),
-            int(scene.render.resolution_y * pct),
-            settings.lights_total,
-        )
+        _check_memory(*frame_size(scene.render), settings.lights_total)
         output = args.output.resolve()
         before = output.stat().st_mtime_ns if output.is_file() else None
         with _device_preference(bpy, package, args.device):
@@ -319,8 +315,7 @@ def cmd_render(args) -> int:
             finally:
                 _after_interrupt(output, before)
             seconds = time.perf_counter() - t0
-        pct = scene.render.resolution_percentage / 100
-        w, h = int(scene.render.resolution_x * pct), int(scene.render.resolution_y * pct)
+        w, h = frame_size(scene.render)  # as F12 sized it
     if not output.is_file() or output.stat().st_mtime_ns == before:
         raise BTFError(f"the render wrote no image to {output}")
     print(f"rendered {w}x{h} with {describe(settings)} in {seconds:.2f} s -> {args.output}")
@@ -362,13 +357,14 @@ def _check_stereo_flags(args) -> None:
 def _render_stereo(bpy, scene, args) -> int:
     """The stereo capture of ``scene`` (blender/stereo_capture.py, the operator's own path)."""
     from ..blender.stereo_capture import capture_scene
+    from ..blender.sync import render_settings
     from ..gl.stereo_capture import describe as describe_capture
 
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to capture from")
     given = overrides(args)
     _check_ranges(scene.btf_render, given)
-    settings = RenderSettings.from_scene(scene).with_overrides(**given)  # the film, as F12
+    settings = render_settings(scene).with_overrides(**given)  # the film, as F12
     t0 = time.perf_counter()
     capture, written = capture_scene(
         bpy.context.evaluated_depsgraph_get(),
@@ -411,6 +407,7 @@ def describe(settings: RenderSettings) -> str:
 def prepare_scene(scene, args) -> RenderSettings:
     """The scene as F12 will see it: the BTF engine, the overrides, the output file."""
     from ..blender.addon import ENGINE_ID
+    from ..blender.sync import render_settings
 
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to render from")
@@ -422,7 +419,7 @@ def prepare_scene(scene, args) -> RenderSettings:
         scene.render.engine = ENGINE_ID
     given = overrides(args)
     _check_ranges(scene.btf_render, given)
-    settings = RenderSettings.from_scene(scene).with_overrides(**given)  # the film, as F12
+    settings = render_settings(scene).with_overrides(**given)  # the film, as F12
     settings.to_properties(scene.btf_render)
     if args.filter is not False:
         _apply_filter(scene, args.filter)

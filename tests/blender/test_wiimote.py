@@ -724,6 +724,36 @@ def test_lights_per_redraw_stays_within_the_property_limits(bpy_module, fresh_sc
     assert settings.lights_per_redraw == prop.hard_max
 
 
+def test_lights_per_frame_in_a_headset_changes_what_the_headset_reads(bpy_module, fresh_scene):
+    """In Blender's VR session "Lights per frame +/-" steps the headset's own lights per frame
+    (``scene.btf_vr``, which the VR draw callback reads; switched to a fixed count, since the
+    frame budget would otherwise choose K), not the viewport's lights per redraw."""
+    from mathutils import Vector
+
+    bpy = bpy_module
+    scene = bpy.context.scene
+    if not hasattr(scene, "btf_vr"):
+        pytest.skip("this Blender build has no OpenXR: no VR session, no scene.btf_vr")
+    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    actions = extension_submodule("btf_addon.controllers.actions")
+    xr = extension_submodule("btf_addon.blender.xr")
+    ctx = edits.EditContext(scene, bpy.context.view_layer)
+    ctx.xr_source = lambda: _vr_state(Vector((0.0, -4.0, 1.0)))
+    redraw, per_frame = scene.btf_render.lights_per_redraw, scene.btf_vr.lights_per_frame
+    assert scene.btf_vr.lights_mode == "BUDGET"
+    message = edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.LIGHTS_MORE))
+    read = xr.VRSettings.from_properties(scene.btf_vr)  # what the headset's callback reads
+    assert not read.use_budget and read.lights_per_frame == per_frame + 1
+    assert scene.btf_render.lights_per_redraw == redraw  # the viewport's K is untouched
+    assert message == f"VR lights per frame {per_frame + 1} (fixed)"
+    for _ in range(100):  # the panel's range holds
+        edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.LIGHTS_MORE))
+    assert scene.btf_vr.lights_per_frame == edits.lights_range(scene.btf_vr, "lights_per_frame")[1]
+    ctx.xr_source = lambda: None  # the session ended: the viewport's K again
+    edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.LIGHTS_FEWER))
+    assert scene.btf_render.lights_per_redraw == redraw - 1
+
+
 # ------------------------------------------------- the VR half (issue 13), with a stand-in state
 def _vr_state(viewer_location):
     """XrSessionState's attribute names, for a session Blender cannot start headless: the
