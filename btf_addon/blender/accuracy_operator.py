@@ -2,13 +2,13 @@
 Quality vs Time).
 
 The operator exports the scene at the preview size on the main thread (bpy), then renders the
-ladder on a worker thread (bpy-free: blender/accuracy_run.py + render/accuracy.py) while a
+ladder on a worker thread (bpy-free: blender/accuracy_run.py + render/accuracy/ladder.py) while a
 modal timer shows progress; Esc or the panel's Cancel stops it between launches, keeping the
 rungs done. Run from a script (``bpy.ops.btf.estimate_quality()``, no window), it runs to the
 end before returning. The result is stored on the scene as the report's JSON
 (``scene.btf_accuracy.report``, saved with the file); the panel draws its curve as an image
-preview made by the numpy plot raster (render/plot.py) and offers Apply Recommended, one undo
-step.
+preview made by the numpy plot raster (render/accuracy/plot.py) and offers Apply Recommended,
+one undo step.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from bpy.props import FloatProperty, IntProperty, PointerProperty, StringPropert
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ..core.errors import BTFError
-from ..render.accuracy import run, settings_from_json, verify_recommendation
-from ..render.accuracy_report import error_plot, to_json
+from ..render.accuracy.ladder import run, settings_from_json, verify_recommendation
+from ..render.accuracy.report import error_plot, to_json
 from ..render.settings import RenderSettings
 from .accuracy_run import prepare, set_up
 from .addon import ENGINE_ID

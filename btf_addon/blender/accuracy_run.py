@@ -21,7 +21,7 @@ import numpy as np
 from ..cl.context import OpenCLUnavailableError, create_context
 from ..cl.renderer import CLRenderer
 from ..core.errors import BTFError
-from ..render.accuracy import KNOBS, Estimate, Rung, ladder, reference_settings
+from ..render.accuracy.ladder import KNOBS, Estimate, Rung, ladder, reference_settings
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
 from ..scene.analysis import analyse

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
 from ..cl.programs import OpenCLCompileError, is_cached
-from ..cl.renderer import KERNELS, CLRenderer
+from ..cl.renderer import KERNELS, CLRenderer, program_defines
 from ..core.errors import BTFError
 from ..render.lighting import frame_lights
 from ..scene.analysis import analyse
@@ -84,7 +84,8 @@ def render(engine, depsgraph) -> None:
     try:
         cl_context = create_context(preferred_device())
         features = analyse(exported)
-        if not is_cached(cl_context.context, cl_context.device, KERNELS, features.defines()):
+        defines = program_defines(features)
+        if not is_cached(cl_context.context, cl_context.device, KERNELS, defines):
             engine.update_stats(
                 "",
                 f"BTF | compiling the render kernels for {cl_context.device_name} "

@@ -6,10 +6,9 @@ host's context, where one was current, is current again afterwards (gl/host_cont
 
 from __future__ import annotations
 
-from ..core.errors import BTFError
+from ..core.errors import BTFMaterialsError
 from ..gl import host_context
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
-from ..gl.interface import ShaderCompileError
 from ..gl.moderngl_device import ModernGLDevice
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
@@ -39,7 +38,7 @@ def _render(engine, exported, settings, w, h, transparent):
         return None
     try:
         drawer = ProgressiveDrawer(device, exported)
-    except (BTFError, ShaderCompileError) as exc:
+    except BTFMaterialsError as exc:  # bad input or a shader that does not compile
         device.close()
         engine.report({"ERROR"}, str(exc))
         return None

@@ -29,10 +29,9 @@ import numpy as np
 from bpy.props import EnumProperty, IntProperty, StringProperty
 from bpy.types import Operator
 
-from ..core.errors import BTFError
+from ..core.errors import BTFError, BTFMaterialsError
 from ..core.fileio import atomic_write_path
 from ..gl.drawer import MAX_SIZE
-from ..gl.interface import ShaderCompileError
 from ..gl.stereo_capture import (
     LAYOUTS,
     StereoCapture,
@@ -192,7 +191,7 @@ class BTF_OT_stereo_capture(Operator):
                 self.eye_width or None,
                 device=device,
             )
-        except (BTFError, ShaderCompileError, ValueError) as exc:
+        except (BTFMaterialsError, ValueError) as exc:
             self.report({"ERROR"}, f"Stereo Capture: {exc}")
             return {"CANCELLED"}
         except Exception as exc:  # no headless OpenGL; Blender's GPUOffScreen raises a bare

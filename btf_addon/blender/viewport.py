@@ -11,9 +11,8 @@ import gpu
 import numpy as np
 from gpu_extras.presets import draw_texture_2d
 
-from ..core.errors import BTFError
+from ..core.errors import BTFMaterialsError
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
-from ..gl.interface import ShaderCompileError
 from ..render.lighting import frame_lights
 from .export import ExportCache, changed_ids, export_scene
 from .gpu_draw import BlenderGPUDevice
@@ -67,7 +66,7 @@ def view_draw(engine, context, depsgraph) -> None:
             scene_data = export_scene(depsgraph, *size, cache=state.cache, viewport=True)
             state.drawer = ProgressiveDrawer(state.device, scene_data, previous=state.drawer)
             state.error = ""
-        except (BTFError, ShaderCompileError) as exc:
+        except BTFMaterialsError as exc:  # bad input or a shader that does not compile
             state.drawer, state.error = None, str(exc)
             engine.report({"ERROR"}, state.error)
             return

@@ -35,12 +35,11 @@ import bpy
 import gpu
 import numpy as np
 
-from ..core.errors import BTFError
+from ..core.errors import BTFMaterialsError
 from ..gl.device import DrawState
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.eye import EyeAccumulation
 from ..gl.hud import HudDrawer
-from ..gl.interface import ShaderCompileError
 from ..render.frame_budget import FrameBudget
 from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
 from ..render.stereo import EyeId, EyeIdentifier
@@ -198,7 +197,7 @@ class XRPreview:
             scene = export_scene(depsgraph, *size, cache=self.cache, viewport=True)
             self.drawer = ProgressiveDrawer(self.device, scene, previous=self.drawer)
             self.error, self.messages = "", list(scene.messages)
-        except (BTFError, ShaderCompileError) as exc:
+        except BTFMaterialsError as exc:  # bad input or a shader that does not compile
             if self.drawer is not None:
                 self.drawer.release()
             self.drawer, self.error = None, str(exc)

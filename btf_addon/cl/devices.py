@@ -20,12 +20,13 @@ import logging
 import re
 from dataclasses import asdict, dataclass
 
+from ..core.errors import DeviceError
 from ..core.fileio import atomic_write
 
 log = logging.getLogger(__name__)
 
 
-class OpenCLUnavailableError(RuntimeError):
+class OpenCLUnavailableError(DeviceError):
     """No usable OpenCL device: the message says why and what to install. Device discovery and
     the probe raise it; a kernel that fails to compile is ``programs.OpenCLCompileError``.
     ``reason`` is the why alone, for callers that give their own advice (Blender's words)."""

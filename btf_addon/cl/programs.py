@@ -21,6 +21,7 @@ import tempfile
 from pathlib import Path
 
 from ..core import packed
+from ..core.errors import BuildError
 from ..core.fileio import atomic_write
 
 log = logging.getLogger(__name__)
@@ -29,7 +30,7 @@ KERNELS_DIR = Path(__file__).resolve().parents[2] / "kernels"
 _memory_cache: dict[str, object] = {}
 
 
-class OpenCLCompileError(RuntimeError):
+class OpenCLCompileError(BuildError):
     """A kernel failed to compile: a bug in kernels/ or a driver that rejects valid code, never
     "no device". ``build_log`` holds the compiler's messages."""
 

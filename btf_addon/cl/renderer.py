@@ -35,6 +35,15 @@ from .context import CLContext
 from .programs import build_program
 
 KERNELS = "render_direct.cl"  # both final-render kernels
+
+
+def program_defines(features) -> dict[str, int]:
+    """The final render's build defines: the scene's effects (scene/analysis.py) and the size
+    of the film filter's table (render/pixel_filter.py, read by kernels/include/btf_filter.h:
+    one definition, arriving as a define). What ``is_cached`` must be asked with too."""
+    return {**features.defines(), "FILTER_TABLE_SIZE": FILTER_TABLE_SIZE}
+
+
 LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
 DEFAULT_FILM = PixelFilter()  # Blender's default film: Blackman-Harris, 1.5 px
 
@@ -83,7 +92,7 @@ class CLRenderer:
         self.importance_sampling = True
         self._packed_importance = False
         program = build_program(
-            cl_context.context, cl_context.device, KERNELS, self.features.defines()
+            cl_context.context, cl_context.device, KERNELS, program_defines(self.features)
         )
         self.kernel = cl.Kernel(program, "render_direct")
         self.kernel_mis = cl.Kernel(program, "render_env_mis")

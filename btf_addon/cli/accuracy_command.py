@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 from ..core.errors import BTFError
-from ..render.accuracy import describe_rung, run, verify_recommendation
-from ..render.accuracy_report import to_json, write_json, write_report
+from ..render.accuracy.ladder import describe_rung, run, verify_recommendation
+from ..render.accuracy.report import to_json, write_json, write_report
 
 DESCRIPTION = """\
 Estimate what accuracy costs in time for a .blend's camera view: every quality knob that

@@ -107,7 +107,7 @@ def _positive_float(text: str) -> float:
 
 def cmd_bridge(args) -> int:
     from ..controllers import actions, xr_bindings
-    from ..xr.bridge import BridgeError, BridgeSettings, ControlMap, run_bridge
+    from ..xr.bridge import BridgeSettings, ControlMap, run_bridge
 
     if not args.blend.is_file():
         raise BTFError(f"{args.blend}: no such .blend file")
@@ -124,17 +124,12 @@ def cmd_bridge(args) -> int:
     )
     for message in scene.messages:
         print(f"note: {message}", file=sys.stderr)
-    try:
-        controls = ControlMap(
-            xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
-        )
-        status = run_bridge(scene, render_settings, settings, args.frames, controls)
-    except BridgeError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return exc.exit_code
-    except KeyboardInterrupt:  # Ctrl-C: the session and context were released on the way out
-        print("interrupted: the OpenXR session was closed", file=sys.stderr)
-        return 130
+    # BridgeError (its exit codes) and Ctrl-C (130) end at the CLI's one boundary (cli/main.py);
+    # the session and the context are released on the way out.
+    controls = ControlMap(
+        xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
+    )
+    status = run_bridge(scene, render_settings, settings, args.frames, controls)
     fps = f"{status.fps:.1f}" if status.fps is not None else "n/a"
     w, h = status.eye_size
     print(f"runtime: {status.runtime}")

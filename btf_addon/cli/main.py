@@ -1,8 +1,10 @@
 """Argument parsing and the one error boundary shared by all commands.
 
-Every failure ends as one line on stderr and an exit code: 2 for input the user can fix
-(``BTFError``, including ``MemoryLimitError`` for sizes refused up front, and ``OSError``: a
-missing file, a full disk), 1 for an internal error ("internal error: …, rerun with -v"; ``-v``
+Every failure ends as one line on stderr and an exit code: each error of the add-on's one root
+(core/errors.py ``BTFMaterialsError``) its own ``exit_code`` — 2 for input or a device the
+user can fix (``BTFError``, including ``MemoryLimitError`` for sizes refused up front;
+``DeviceError``), the bridge's 3–6 (xr/errors.py) — 2 for ``OSError`` (a missing file, a full
+disk), 1 for an internal error ("internal error: …, rerun with -v"; ``-v``
 prints the traceback), 130 for Ctrl-C and SIGTERM. Interrupts unwind through the writers,
 so ``core/fileio.py`` removes its temporary files on the way out.
 """
@@ -16,7 +18,7 @@ import sys
 import traceback
 
 from ..core import memory
-from ..core.errors import BTFError
+from ..core.errors import BTFMaterialsError
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 1
@@ -95,9 +97,9 @@ def main(argv: list[str] | None = None, prog: str = "python -m btf_addon") -> in
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
         print(f"{what}: stopped, partial outputs removed", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except BTFError as exc:
+    except BTFMaterialsError as exc:  # every error raised on purpose, with its exit status
         print(f"error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
+        return exc.exit_code
     except OSError as exc:
         print(f"error: {_os_error_text(exc)}", file=sys.stderr)
         return EXIT_INPUT

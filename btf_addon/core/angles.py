@@ -39,8 +39,3 @@ def normalize_directions(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     valid = finite & (length > 1e-12)
     unit = np.where(valid[..., None], safe / np.where(valid, length, 1.0)[..., None], [0, 0, 1])
     return unit, valid
-
-
-def reflect_z(d: np.ndarray) -> np.ndarray:
-    """Mirror direction about the normal (+z): (x, y, z) → (−x, −y, z)."""
-    return d * np.array([-1.0, -1.0, 1.0])

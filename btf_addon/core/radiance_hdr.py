@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 
 from .errors import BTFFormatError
-from .fileio import atomic_write
 
 MAX_SIDE = 1 << 15
 
@@ -122,8 +121,3 @@ def encode_hdr(rgb: np.ndarray) -> bytes:
     rgbe[..., 3] = np.where(ok, np.clip(exp + 128, 0, 255), 0)
     head = f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode()
     return head + rgbe.tobytes()
-
-
-def write_hdr(path: str | Path, rgb: np.ndarray) -> Path:
-    data = encode_hdr(rgb)
-    return atomic_write(path, lambda fh: fh.write(data))

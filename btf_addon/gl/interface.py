@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..core import packed
+from ..core.errors import BuildError
 
 SHADERS_DIR = Path(__file__).resolve().parents[2] / "shaders"
 MAX_SAMPLERS = 16  # Metal's limit: what every back end of this add-on keeps to
@@ -44,7 +45,7 @@ _TYPE_BYTES = {
 _SAMPLERS = {"FLOAT_2D": "sampler2D", "INT_2D": "isampler2D"}
 
 
-class ShaderCompileError(RuntimeError):
+class ShaderCompileError(BuildError):
     """A shader failed to compile or link; the message holds the shader name and the log."""
 
 

@@ -2,7 +2,7 @@
 
 Each query occupies one texel of two RGBA32F query textures; a full-screen draw runs the shared
 ``btf_evaluate`` GLSL function once per fragment into an RGBA32F target. The same shader bodies run
-inside Blender (btf_addon/blender/gpu_query.py); tests compare both with the numpy reference.
+inside Blender (tests/blender_gpu_query.py); tests compare both with the numpy reference.
 """
 
 from __future__ import annotations

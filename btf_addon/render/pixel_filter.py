@@ -126,11 +126,6 @@ class PixelFilter:
         table[-1] = min(table[-1], 2.0 * median - table[-2])
         return table.astype(np.float32)
 
-    def footprint_weight(self, dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
-        """The normalised 2D filter f(dx)·f(dy) / (∫f)² at offsets in pixels."""
-        norm = (2.0 * float(self.cdf(self.radius))) ** 2
-        return self.profile(dx) * self.profile(dy) / max(norm, 1e-300)
-
 
 # The R2 sequence's steps (Roberts 2018): 1/φ₂ and 1/φ₂², φ₂ the plastic number.
 R2_STEP = (0.7548776662466927, 0.5698402909980532)

@@ -39,14 +39,6 @@ def write_eye(directory: Path, frame: int, eye: str, image: np.ndarray, meta: di
     return atomic_write(directory / f"{stem}.json", lambda f: f.write(text))
 
 
-def read_eye(json_path: Path) -> tuple[dict, np.ndarray]:
-    """A capture's JSON and its image ((h, w, 3) float32, row 0 at the top)."""
-    from ..core.imageio import read_exr
-
-    meta = json.loads(Path(json_path).read_text())
-    return meta, read_exr(Path(json_path).parent / meta["image"])
-
-
 def _plain(value):
     if isinstance(value, np.ndarray):
         return value.tolist()

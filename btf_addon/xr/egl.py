@@ -15,6 +15,7 @@ import ctypes
 import ctypes.util
 import threading
 
+from ..core.errors import DeviceError
 from ..gl import host_context
 
 EGL_DEFAULT_DISPLAY = 0
@@ -34,7 +35,7 @@ EGL_EXTENSIONS = 0x3055
 EGL_VENDOR = 0x3053
 
 
-class EGLError(RuntimeError):
+class EGLError(DeviceError):
     """An EGL call failed; the message names the call and EGL's error code."""
 
 

@@ -3,8 +3,10 @@ code (``python -m btf_addon bridge``; the Blender operator shows the message).""
 
 from __future__ import annotations
 
+from ..core.errors import BTFMaterialsError
 
-class BridgeError(Exception):
+
+class BridgeError(BTFMaterialsError):
     """A failure of the XTAL bridge. ``exit_code``: the CLI's exit status for it."""
 
     exit_code: int = 1

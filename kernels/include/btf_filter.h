@@ -9,8 +9,10 @@
 #ifndef BTF_FILTER_H
 #define BTF_FILTER_H
 
+/* FILTER_TABLE_SIZE arrives as a build define (btf_addon/cl/renderer.py program_defines, from
+ * render/pixel_filter.py): the table's size has one definition. */
 #ifndef FILTER_TABLE_SIZE
-#define FILTER_TABLE_SIZE 1025
+#error "FILTER_TABLE_SIZE must be defined by the build (cl/renderer.py program_defines)"
 #endif
 
 /* u in [0, 1) → offset in pixels; monotone (u = ½ → 0), so stratified u stay stratified. */

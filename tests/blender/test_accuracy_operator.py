@@ -39,7 +39,7 @@ def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fres
 
     # The panel's curve: an image preview of the plot raster, rows bottom first.
     module = extension_submodule("btf_addon.blender.accuracy_operator")
-    report = extension_submodule("btf_addon.render.accuracy_report")
+    report = extension_submodule("btf_addon.render.accuracy.report")
     preview = module.plot_preview(scene)
     w, h = module.PLOT_SIZE
     assert tuple(preview.image_size) == (w, h)

@@ -11,7 +11,8 @@ from svd_cases import svd_cases
 
 def test_blender_gpu_svd_matches_numpy_within_1_255(bpy_module, fresh_scene, rng):
     init_gpu_module(bpy_module)
-    gpu_query = extension_submodule("btf_addon.blender.gpu_query")
+    import blender_gpu_query as gpu_query
+
     svd_mod = extension_submodule("btf_addon.core.svd")
     reference = svd_cases()["yuv"]
     # The extension's own class (its module path differs from the checkout's).

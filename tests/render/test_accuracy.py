@@ -1,4 +1,4 @@
-"""render/accuracy.py: the knob ladder, error metrics, time model (injected timings), Pareto
+"""render/accuracy/ladder.py: the knob ladder, error metrics, time model (injected timings), Pareto
 front, recommendation and the run loop with an injected renderer and clock."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from btf_addon.render import accuracy as acc
+from btf_addon.render.accuracy import ladder as acc
 from btf_addon.render.settings import FinalMode, Lighting, RenderSettings
 
 

@@ -1,4 +1,4 @@
-"""render/plot.py (the numpy line-plot raster) and render/accuracy_report.py (the report's
+"""render/accuracy/plot.py (the numpy line-plot raster) and render/accuracy/report.py (the report's
 files) on injected results."""
 
 from __future__ import annotations
@@ -10,9 +10,16 @@ import numpy as np
 import pytest
 from helpers import read_png
 
-from btf_addon.render import accuracy as acc
-from btf_addon.render.accuracy_report import to_json, write_report
-from btf_addon.render.plot import HEAT_STOPS, Plot, Series, heat_colours, heat_map, render_plot
+from btf_addon.render.accuracy import ladder as acc
+from btf_addon.render.accuracy.plot import (
+    HEAT_STOPS,
+    Plot,
+    Series,
+    heat_colours,
+    heat_map,
+    render_plot,
+)
+from btf_addon.render.accuracy.report import to_json, write_report
 from btf_addon.render.settings import RenderSettings
 
 

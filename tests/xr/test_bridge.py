@@ -229,9 +229,18 @@ def test_submitted_images_equal_an_independent_render_of_the_submitted_poses(
         assert ours.mean() > 0.02  # the sphere and floor are in view, not a black frame
 
 
+def read_eye(json_path):
+    """A capture's JSON (xr/capture.py) and its image ((h, w, 3) float32, row 0 at the top)."""
+    import json
+
+    from btf_addon.core.imageio import read_exr
+
+    meta = json.loads(json_path.read_text())
+    return meta, read_exr(json_path.parent / meta["image"])
+
+
 def test_captures_agree_with_the_submitted_frames(xr_runtime, rng, tmp_path):
     from btf_addon.xr.bridge import run_bridge
-    from btf_addon.xr.capture import read_eye
 
     script(xr_runtime, head=[head(0.02 * i) for i in range(6)])
     run_bridge(

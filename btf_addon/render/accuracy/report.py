@@ -14,11 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from ..core.fileio import atomic_write
-from ..core.imageio import srgb8_from_linear, write_png
-from .accuracy import (
+from ...core.fileio import atomic_write
+from ...core.imageio import srgb8_from_linear, write_png
+from .ladder import (
     Estimate,
-    Recommendation,
     Role,
     _class_text,
     all_knobs,
@@ -385,8 +384,3 @@ def _images(text: str) -> str:
 
 def _bold(text: str) -> str:
     return re.sub(r"\*\*([^*]+)\*\*", r"<b>\1</b>", text)
-
-
-def recommendation_of(data: dict[str, Any]) -> Recommendation | None:
-    rec = data.get("recommendation")
-    return None if rec is None else Recommendation(rec["index"], rec["reason"], rec["met"])

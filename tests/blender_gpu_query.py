@@ -1,20 +1,25 @@
-"""Evaluate BTFs at query lists with the same GLSL inside Blender (``gpu`` module, offscreen).
+"""Evaluate BTFs at query lists with the same GLSL inside Blender (``gpu`` module, offscreen):
+the check that Blender's own GPU pipeline decodes every codec as the standalone one does
+(test_gpu_query.py, test_svd_blender.py). Test code: the product never evaluates queries
+through Blender's ``gpu`` module, so this lives beside its tests, over the installed
+extension's modules.
 
-Background Blender needs its GPU context first: call inside ``RenderEngine.render()`` with
-``bl_use_gpu_context`` or after one rendered frame (tests/blender_helpers.init_gpu_module).
+Background Blender needs its GPU context first: call after one rendered frame
+(tests/blender_helpers.init_gpu_module).
 """
 
 from __future__ import annotations
 
 import gpu
 import numpy as np
+from blender_helpers import extension_submodule
 from gpu_extras.batch import batch_for_shader
 
-from ..core.model import BTF, DelegatingBTF, Queries
-from ..core.packed import pack
-from ..gl.interface import QUERY_SHADER
-from ..gl.query import query_textures
-from .gpu_draw import shader, texture
+from btf_addon.core.model import BTF, Queries
+
+
+def _ext(name: str):
+    return extension_submodule(f"btf_addon.{name}")
 
 
 class BlenderGPUEvaluator:
@@ -22,8 +27,9 @@ class BlenderGPUEvaluator:
     (offscreen); the BTF's packed tables stay uploaded between calls."""
 
     def __init__(self, btf: BTF):
-        packed = pack(btf)
-        self.shader = shader(QUERY_SHADER)
+        packed = _ext("core.packed").pack(btf)
+        texture = _ext("blender.gpu_draw").texture
+        self.shader = _ext("blender.gpu_draw").shader(_ext("gl.interface").QUERY_SHADER)
         self.int_tex = texture(packed.ints, "R32F")
         self.float_tex = texture(packed.floats, "R32F")
         self.batch = batch_for_shader(
@@ -34,7 +40,8 @@ class BlenderGPUEvaluator:
 
     def __call__(self, q: Queries) -> np.ndarray:
         n = len(q.uv)
-        a, b, (w, h) = query_textures(q)
+        texture = _ext("blender.gpu_draw").texture
+        a, b, (w, h) = _ext("gl.query").query_textures(q)
         tex_a = texture(a, "RGBA32F")
         tex_b = texture(b, "RGBA32F")
         offscreen = gpu.types.GPUOffScreen(w, h, format="RGBA32F")
@@ -60,6 +67,7 @@ class BlenderGPUEvaluator:
         return out[:n, :3].astype(np.float64)
 
 
-def blender_gpu_btf(btf: BTF) -> DelegatingBTF:
-    """``btf`` evaluated by the GLSL shaders in Blender's ``gpu`` module."""
-    return DelegatingBTF(btf, BlenderGPUEvaluator(btf))
+def blender_gpu_btf(btf: BTF):
+    """``btf`` (the installed extension's class) evaluated by the GLSL shaders in Blender's
+    ``gpu`` module, as the extension's own ``DelegatingBTF``."""
+    return _ext("core.model").DelegatingBTF(btf, BlenderGPUEvaluator(btf))

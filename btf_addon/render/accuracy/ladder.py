@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from ..core.colour import srgb_encode
-from .settings import FinalMode, Lighting, RenderSettings
+from ...core.colour import srgb_encode
+from ..settings import FinalMode, Lighting, RenderSettings
 
 
 class Role(enum.Enum):

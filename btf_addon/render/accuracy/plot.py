@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .hud import CELL_H, CELL_W, raster_text
+from ..hud import CELL_H, CELL_W, raster_text
 
 WHITE = (255, 255, 255)
 BLACK = (0, 0, 0)
