@@ -1,7 +1,7 @@
 """The accuracy report on the benchmark scene, and how well it predicts full-resolution renders.
 
 The viewport/final-render benchmark scene (alu sphere on a wallpaper plane, forest.exr) as a
-Blender scene at FULL; the accuracy estimate (blender/accuracy_run.py + render/accuracy/ladder.py,
+Blender scene at FULL; the accuracy estimate (blender/accuracy/run.py + render/accuracy/ladder.py,
 what `python -m btf_addon accuracy` runs) at the reduced PREVIEW size against a
 REFERENCE_SAMPLES-sample, 8-bounce reference. Then a few of its Pareto-front settings (the
 recommendation for TARGET among them) are rendered at FULL through F12 itself
@@ -119,7 +119,7 @@ def main() -> str:
     import bpy
 
     import btf_addon
-    from btf_addon.blender.accuracy_run import prepare
+    from btf_addon.blender.accuracy.run import prepare
     from btf_addon.render.accuracy.ladder import (
         describe_rung,
         recommend,

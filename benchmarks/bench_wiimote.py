@@ -168,7 +168,8 @@ def main() -> str:
     import bpy
 
     import btf_addon
-    from btf_addon.blender import wiimote_edits, wiimote_session
+    from btf_addon.blender.wiimote import edits as wiimote_edits
+    from btf_addon.blender.wiimote import session as wiimote_session
 
     btf_addon.register()
     try:

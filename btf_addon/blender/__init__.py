@@ -1,4 +1,7 @@
-"""The Blender layer: the only package that imports bpy.
+"""The Blender layer: the only package that imports bpy. Rooms by job: ``vr/`` (Blender's VR
+session, the XTAL bridge, stereo captures), ``wiimote/``, ``accuracy/`` (Quality vs Time),
+``ui/`` (panels), ``tools/`` (import, drag and drop, compress), ``export/`` (depsgraph →
+plain scene); the engine, F12, the viewport, sync, preferences and properties stay here.
 
 Submodules register in order and unregister in reverse (hydra_storm's pattern). A failing
 registration is never swallowed: Blender shows the exception and the add-on stays disabled.
@@ -9,27 +12,27 @@ from __future__ import annotations
 import importlib
 
 MODULES = (
-    "wiimote_preferences",  # before preferences: BTF_AddonPreferences.wiimote points at it
+    "wiimote.preferences",  # before preferences: BTF_AddonPreferences.wiimote points at it
     "preferences",
     "properties",
     "paths",  # BTF sources as external data: save handlers, File › External Data
     "versioning",  # after the property groups it upgrades
     "render_settings",
     "operators",
-    "import_btf",
+    "tools.import_btf",
     "engine",
-    "ui",
-    "mapping_panel",  # after ui: a child of BTF_PT_material
-    "panels",  # Blender's own panels for this engine, by what it honours
-    "file_handler",
-    "accuracy_operator",  # after ui: its panel is a child of BTF_PT_render_settings
-    "film_panel",  # after ui: below the BTF render panel
-    "compress_operator",
-    "wiimote_overlay",
-    "wiimote_operator",
-    "stereo_capture",
-    "xr",  # after wiimote_overlay: the VR HUD shows the Wiimote's help rows
-    "xtal_bridge",  # needs no OpenXR in Blender's build: the loader comes with pyopenxr
+    "ui.btf_panels",
+    "ui.mapping",  # after ui.btf_panels: a child of BTF_PT_material
+    "ui.blender_panels",  # Blender's own panels for this engine, by what it honours
+    "tools.file_handler",
+    "accuracy.operator",  # after ui.btf_panels: its panel is a child of BTF_PT_render_settings
+    "ui.film",  # after ui.btf_panels: below the BTF render panel
+    "tools.compress",
+    "wiimote.overlay",
+    "wiimote.operator",
+    "vr.stereo_capture",
+    "vr.preview",  # after wiimote.overlay: the VR HUD shows the Wiimote's help rows
+    "vr.xtal_bridge",  # needs no OpenXR in Blender's build: the loader comes with pyopenxr
 )
 
 

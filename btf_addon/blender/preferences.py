@@ -9,8 +9,8 @@ from bpy.props import EnumProperty, PointerProperty
 from bpy.types import AddonPreferences
 
 from ..cl.devices import device_report
-from . import wiimote_preferences
 from .addon import ADDON_PACKAGE
+from .wiimote import preferences as wiimote_preferences
 
 #: ``missing_source`` identifiers: what F12 does when a BTF material's source cannot be loaded.
 MISSING_FAIL = "FAIL"

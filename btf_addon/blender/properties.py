@@ -82,7 +82,7 @@ class BTFMaterialSettings(PropertyGroup):
         soft_max=10.0,
         description="Brightness change in stops (×2 per stop)",
     )
-    # --- mapping (core/mapping.py documents each; blender/mapping_panel.py draws them) -------
+    # --- mapping (core/mapping.py documents each; blender/ui/mapping.py draws them) -------
     # Identifiers and defaults are fixed names: settings versioning upgrades files saved
     # before they existed to today's look (NEAREST, UV, no real-world size).
     mapping: EnumProperty(

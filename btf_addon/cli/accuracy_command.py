@@ -2,7 +2,7 @@
 
 The file is opened as ``render --blend`` opens it (its scene's own render settings are the
 starting point), the scene is exported once at a reduced size, and every quality knob that
-applies is swept by the final render's own OpenCL renderer (blender/accuracy_run.py), against a
+applies is swept by the final render's own OpenCL renderer (blender/accuracy/run.py), against a
 reference rendered once at high quality. Ctrl-C stops after writing what is done.
 """
 
@@ -130,7 +130,7 @@ def cmd_accuracy(args) -> int:
         import bpy
     except ImportError:
         raise BTFError("the estimate needs Blender's bpy module (pip install bpy==5.0.1)") from None
-    from ..blender.accuracy_run import prepare
+    from ..blender.accuracy.run import prepare
     from .render_command import _engine_registered
 
     folder = args.output.resolve()

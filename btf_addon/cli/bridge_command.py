@@ -106,8 +106,8 @@ def _positive_float(text: str) -> float:
 
 
 def cmd_bridge(args) -> int:
-    from ..controllers import actions, xr_bindings
-    from ..xr.bridge import BridgeSettings, ControlMap, run_bridge
+    from ..xr.bridge import BridgeSettings, run_bridge
+    from ..xr.controls import vr_controls
 
     if not args.blend.is_file():
         raise BTFError(f"{args.blend}: no such .blend file")
@@ -126,10 +126,7 @@ def cmd_bridge(args) -> int:
         print(f"note: {message}", file=sys.stderr)
     # BridgeError (its exit codes) and Ctrl-C (130) end at the CLI's one boundary (cli/main.py);
     # the session and the context are released on the way out.
-    controls = ControlMap(
-        xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
-    )
-    status = run_bridge(scene, render_settings, settings, args.frames, controls)
+    status = run_bridge(scene, render_settings, settings, args.frames, vr_controls())
     fps = f"{status.fps:.1f}" if status.fps is not None else "n/a"
     w, h = status.eye_size
     print(f"runtime: {status.runtime}")

@@ -6,7 +6,7 @@ management, passes), the flags given override them in the UI's words, and
 ``bpy.ops.render.render(write_still=True)`` renders and saves the image, as F12 + Save and
 ``blender -b file.blend -f 1`` do. There is no second render path here to drift from F12.
 ``--stereo`` opens the file the same way but is no F12: it captures what a headset would see,
-through the Stereo Capture operator's own code (blender/stereo_capture.py).
+through the Stereo Capture operator's own code (blender/vr/stereo_capture.py).
 """
 
 from __future__ import annotations
@@ -355,9 +355,9 @@ def _check_stereo_flags(args) -> None:
 
 
 def _render_stereo(bpy, scene, args) -> int:
-    """The stereo capture of ``scene`` (blender/stereo_capture.py, the operator's own path)."""
-    from ..blender.stereo_capture import capture_scene
+    """The stereo capture of ``scene`` (blender/vr/stereo_capture.py, the operator's own path)."""
     from ..blender.sync import render_settings
+    from ..blender.vr.stereo_capture import capture_scene
     from ..gl.stereo_capture import describe as describe_capture
 
     if scene.camera is None:

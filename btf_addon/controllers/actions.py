@@ -1,6 +1,6 @@
 """The action vocabulary every input device maps to (the thesis's "generic controls API", as
 data). An action says what changes, never which button asked for it; the Blender layer turns
-actions into scene edits (``blender/wiimote_edits.py``).
+actions into scene edits (``blender/wiimote/edits.py``).
 """
 
 from __future__ import annotations

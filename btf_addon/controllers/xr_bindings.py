@@ -1,7 +1,7 @@
 """The VR controller actions as data: one OpenXR action set whose actions map to the shared
 action vocabulary (``actions.Action``), with bindings for the common interaction profiles.
 
-``blender/xr_actions.py`` turns this into Blender action maps when a VR session starts
+``blender/vr/actions.py`` turns this into Blender action maps when a VR session starts
 (``XrActionMaps.new`` → items → bindings → ``action_set_create``/``action_create``/
 ``action_binding_create`` → ``controller_pose_actions_set`` → ``active_action_set_set``).
 Every string here is a value Blender's RNA accepts (``XrActionMapItem.type``,
@@ -37,7 +37,7 @@ from .actions import CONTINUOUS, Action
 
 #: The one action set (an OpenXR action-set name: lowercase letters, digits, ``-_.``).
 ACTION_SET = "btf_vr"
-#: The operator every non-pose action calls (``blender/xr_actions.py``).
+#: The operator every non-pose action calls (``blender/vr/actions.py``).
 OPERATOR = "btf.xr_action"
 LEFT = "/user/hand/left"
 RIGHT = "/user/hand/right"

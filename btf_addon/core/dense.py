@@ -13,15 +13,7 @@ import numpy as np
 
 from .errors import BTFFormatError
 from .grid import UBO2003, RingGrid
-from .model import (
-    BTF,
-    CHUNK,
-    BTFMeta,
-    Queries,
-    tile_size_from_params,
-    tile_size_param,
-    wrap_texel,
-)
+from .model import BTF, CHUNK, BTFMeta, Queries, tile_size_from_params, tile_size_param, wrap_texel
 from .packed import TableWriter, register_codec
 
 

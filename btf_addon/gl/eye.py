@@ -1,5 +1,5 @@
 """One eye's progressive image in a headset's frame loop: what Blender's VR session callback
-(blender/xr.py) and the XTAL bridge (xr/bridge.py) each do per eye and per frame.
+(blender/vr/preview.py) and the XTAL bridge (xr/bridge.py) each do per eye and per frame.
 
 Per frame: a view of the eye's size (a new one when the size changes), the virtual lights of
 the render settings (new when the settings, the scene's drawer or — for the headlight — the

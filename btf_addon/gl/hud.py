@@ -1,6 +1,6 @@
 """Draws the VR HUD (render/hud.py: the text raster and the quad's corners) through the Device
 protocol (gl/device.py), so the same code runs on moderngl (tests) and on Blender's ``gpu``
-module (the XR draw callback, blender/xr.py, once per eye with that eye's matrices).
+module (the XR draw callback, blender/vr/preview.py, once per eye with that eye's matrices).
 
 The quad's 6 vertices are uploaded once, as a static uv attribute; the corners and the
 projection are uniforms (HUD_SHADER in gl/interface.py), because the Device makes vertex

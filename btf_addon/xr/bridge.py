@@ -1,5 +1,5 @@
 """The XTAL bridge: our renderer driving a headset straight through OpenXR, with its own frame
-loop. The API the Blender operator (blender/xtal_bridge.py) and the CLI (``bridge``) use.
+loop. The API the Blender operator (blender/vr/xtal_bridge.py) and the CLI (``bridge``) use.
 
 Threads: ``start``, ``run_frame`` and ``close`` run on ONE thread, the one that owns the EGL
 context (OpenGL contexts are current per thread). ``set_scene``, ``request_stop``, ``status``

@@ -1,10 +1,9 @@
 """The VR controllers through the runtime's action system, mapped to the shared vocabulary.
 
 The action set and its bindings are the data of ``controllers/xr_bindings.py`` (the same
-actions and interaction profiles as Blender's own VR session), handed in by the caller as a
-``ControlMap``: ``controllers/`` is this package's sibling in the layer order (both layer 5),
-so neither imports the other; the CLI and the Blender operator (higher layers) build the map
-from ``controllers.xr_bindings`` and ``controllers.actions``. One OpenXR action per item
+actions and interaction profiles as Blender's own VR session) as a ``ControlMap``:
+``vr_controls()`` builds it (``controllers/`` is a layer below; tests hand in maps of their
+own). One OpenXR action per item
 (FLOAT inputs with the item's user paths as subaction paths, POSE inputs for grip and aim),
 bindings suggested per profile, the set attached to the session, synced every frame. A float
 state beyond the item's threshold is a press: PRESS items give one ``Edit`` per press (rising
@@ -38,6 +37,16 @@ class ControlMap:
     items: tuple
     make_edit: Callable
     continuous: frozenset
+
+
+def vr_controls() -> ControlMap:
+    """The VR controllers' action set: the same actions and profiles as in Blender's VR session
+    (controllers/xr_bindings.py), as the Blender operator and the CLI's bridge use it."""
+    from ..controllers import actions, xr_bindings
+
+    return ControlMap(
+        xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
+    )
 
 
 @dataclass

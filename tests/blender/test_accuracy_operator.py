@@ -38,7 +38,7 @@ def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fres
     assert rec["rmse"] == min(p["rmse"] for p in data["points"])  # everything fits 30 s here
 
     # The panel's curve: an image preview of the plot raster, rows bottom first.
-    module = extension_submodule("btf_addon.blender.accuracy_operator")
+    module = extension_submodule("btf_addon.blender.accuracy.operator")
     report = extension_submodule("btf_addon.render.accuracy.report")
     preview = module.plot_preview(scene)
     w, h = module.PLOT_SIZE
@@ -66,7 +66,7 @@ def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fres
 def test_cancel_keeps_what_is_done_and_headlight_is_refused(bpy_module, fresh_scene, tmp_path):
     bpy = bpy_module
     scene = _small_scene(bpy, tmp_path)
-    module = extension_submodule("btf_addon.blender.accuracy_operator")
+    module = extension_submodule("btf_addon.blender.accuracy.operator")
     job = module.start_job(bpy.context)
     assert module.running_job(scene) is job
     # Cancel once two rungs are in (the worker checks between launches).
@@ -108,7 +108,7 @@ def test_panel_draws_the_report_the_progress_and_the_buttons(bpy_module, fresh_s
 
     bpy = bpy_module
     scene = _small_scene(bpy, tmp_path)
-    module = extension_submodule("btf_addon.blender.accuracy_operator")
+    module = extension_submodule("btf_addon.blender.accuracy.operator")
     panel = module.BTF_PT_render_accuracy
 
     def draw():

@@ -82,13 +82,13 @@ def test_import_is_registered_as_one_undo_step(bpy_module, installed):
     """Blender pushes one undo step for an operator with UNDO when it finishes (cancelled or
     failed imports push none, and change nothing: the tests above). Background Blender has no
     window, so ed.undo itself cannot run here."""
-    module = extension_submodule("btf_addon.blender.import_btf")
+    module = extension_submodule("btf_addon.blender.tools.import_btf")
     assert {"REGISTER", "UNDO"} <= module.BTF_OT_import_material.bl_options
 
 
 def test_load_job_reports_errors_from_its_thread(bpy_module, installed, tmp_path):
     """The modal path's loader (the modal loop itself needs a window, which tests lack)."""
-    load_job = extension_submodule("btf_addon.blender.import_btf").LoadJob
+    load_job = extension_submodule("btf_addon.blender.tools.import_btf").LoadJob
     (tmp_path / "x.btfm").write_bytes(b"not a container")
     job = load_job(tmp_path / "x.btfm").start()
     assert job.wait(30) and job.btf is None and job.error

@@ -48,7 +48,7 @@ def test_import_chooses_mapping_by_the_mesh_and_asks_the_size(bpy_module, fresh_
     assert settings.mapping == "BOX" and settings.box_space == "OBJECT"
     assert tuple(settings.tile_size_mm) == pytest.approx((6.4, 6.4))  # the 0.1 mm default
     # The Mapping panel hangs under the BTF material panel.
-    panel = extension_submodule("btf_addon.blender.mapping_panel").BTF_PT_material_mapping
+    panel = extension_submodule("btf_addon.blender.ui.mapping").BTF_PT_material_mapping
     assert panel.bl_parent_id == "BTF_PT_material"
     assert hasattr(bpy.types, "BTF_PT_material_mapping")
 
@@ -112,7 +112,7 @@ def test_mapping_panel_states_the_tile_on_the_active_object(bpy_module, fresh_sc
     cube = bpy.context.object
     _select_only(bpy, cube)
     bpy.ops.btf.import_material(filepath=str(shared_material("alu")), texel_size_mm=0.25)
-    module = extension_submodule("btf_addon.blender.mapping_panel")
+    module = extension_submodule("btf_addon.blender.ui.mapping")
     # Blender's cube: 24 m² of faces on 6 UV squares of 1/4 → 8 m per UV unit.
     assert module.mesh_units_per_uv(cube) == pytest.approx(8.0, rel=1e-6)
     panel = module.BTF_PT_material_mapping
@@ -142,7 +142,7 @@ def test_mapping_panel_does_not_reload_a_broken_source_on_every_redraw(
     broken.write_bytes(b"not a container")
     material = bpy.data.materials.new("broken")
     material.btf.source = str(broken)
-    module = extension_submodule("btf_addon.blender.mapping_panel")
+    module = extension_submodule("btf_addon.blender.ui.mapping")
     materials = extension_submodule("btf_addon.blender.export.materials")
     calls = []
     real = materials.load_btf

@@ -57,7 +57,7 @@ def names(layout: RecordingLayout) -> set[str]:
 
 
 def panels():
-    return extension_submodule("btf_addon.blender.panels")
+    return extension_submodule("btf_addon.blender.ui.blender_panels")
 
 
 @pytest.mark.parametrize(
@@ -98,7 +98,7 @@ def test_material_panels_by_engine(bpy_module, fresh_scene):
     Blender's slot list and preview gain this engine."""
     bpy = bpy_module
     material = with_nodes(bpy.data.materials.new("M"))
-    btf_panel = extension_submodule("btf_addon.blender.ui").BTF_PT_material
+    btf_panel = extension_submodule("btf_addon.blender.ui.btf_panels").BTF_PT_material
     surface = panels().BTF_MATERIAL_PT_surface
     for engine in ("CYCLES", "BLENDER_EEVEE_NEXT", "BLENDER_EEVEE", "BLENDER_WORKBENCH"):
         context = SimpleNamespace(engine=engine, material=material)
@@ -137,7 +137,7 @@ def test_render_panel_says_which_device_renders(bpy_module, fresh_scene):
     """Automatic: the first device that builds programs (GPU, system CPU driver, bundled
     PoCL), by its name and driver: the one the device report marks as F12's."""
     bpy = bpy_module
-    ui = extension_submodule("btf_addon.blender.ui")
+    ui = extension_submodule("btf_addon.blender.ui.btf_panels")
     devices = extension_submodule("btf_addon.cl.devices")
     used = [row for row in devices.device_report() if row["used"]]
     layout = draw(

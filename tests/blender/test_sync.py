@@ -51,7 +51,7 @@ def test_frame_size_is_blenders_own(bpy_module, fresh_scene, tmp_path):
 
 def test_the_accuracy_report_predicts_for_blenders_frame_size(bpy_module, fresh_scene, tmp_path):
     bpy = bpy_module
-    accuracy_run = extension_submodule("btf_addon.blender.accuracy_run")
+    accuracy_run = extension_submodule("btf_addon.blender.accuracy.run")
     write_container(tmp_path / "lambert.btfm", LambertianBTF(0.7))
     scene = sphere_on_ground(bpy, tmp_path, tmp_path / "lambert.btfm", (100, 100), 8, 4)
     scene.render.resolution_percentage = 29
@@ -69,7 +69,7 @@ def test_the_bridge_gets_the_scenes_film_filter(bpy_module, fresh_scene, tmp_pat
     scene = sphere_on_ground(bpy, tmp_path, tmp_path / "lambert.btfm", (32, 32), 8, 4)
     scene.cycles.pixel_filter_type = "GAUSSIAN"
     scene.cycles.filter_width = 2.5
-    module = extension_submodule("btf_addon.blender.xtal_bridge")
+    module = extension_submodule("btf_addon.blender.vr.xtal_bridge")
     sync = extension_submodule("btf_addon.blender.sync")
     made = []
 

@@ -77,8 +77,8 @@ def scene_for_wiimote(bpy):
 
 
 def run_session(bpy, stream):
-    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    session_mod = extension_submodule("btf_addon.blender.wiimote.session")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     replay = extension_submodule("btf_addon.controllers.replay")
     ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
     session = session_mod.WiimoteSession(replay.ReplayTransport(stream), ctx)
@@ -158,7 +158,7 @@ def test_operator_plays_a_recording_file(bpy_module, fresh_scene, tmp_path):
 def test_edited_binding_rate_from_preferences(bpy_module, fresh_scene, tmp_path):
     bpy = bpy_module
     _, _, mapping = scene_for_wiimote(bpy)
-    prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
+    prefs = extension_submodule("btf_addon.blender.wiimote.preferences")
     wiimote_prefs = prefs.wiimote_preferences()
     assert wiimote_prefs is not None
     assert bpy.ops.btf.wiimote_reset_bindings() == {"FINISHED"}
@@ -196,7 +196,7 @@ def test_edited_binding_rate_from_preferences(bpy_module, fresh_scene, tmp_path)
 def test_view_and_object_edits(bpy_module, fresh_scene):
     bpy = bpy_module
     cube, _, _ = scene_for_wiimote(bpy)
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
     Action, Edit = actions.Action, actions.Edit  # noqa: N806 - the extension's classes
     ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
@@ -264,7 +264,7 @@ def test_undo_steps_are_real(bpy_module, fresh_scene):
     bpy.ops.ed.undo()  # the next: the material change
     assert bpy.data.objects["Cube"].material_slots[0].material.name == "BTF A"
     # A session that outlives an undo still edits the scene (it holds names, not references).
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
     edits.apply_edit(session.ctx, actions.Edit(2.0, actions.Action.NEXT_MATERIAL))
     assert bpy.data.objects["Cube"].material_slots[0].material.name == "BTF B"
@@ -280,7 +280,7 @@ def test_help_overlay_draws_the_bindings(bpy_module, fresh_scene):
 
     bpy = bpy_module
     init_gpu_module(bpy)
-    overlay = extension_submodule("btf_addon.blender.wiimote_overlay")
+    overlay = extension_submodule("btf_addon.blender.wiimote.overlay")
     bindings = extension_submodule("btf_addon.controllers.bindings").default_bindings()
     width, height = 520, 560
     offscreen = gpu.types.GPUOffScreen(width, height)
@@ -386,7 +386,7 @@ def test_bindings_are_saved_and_restored_with_the_preferences(bpy_module, instal
         # module (no add-on involved), so the second process cannot read the file back there.
         pytest.skip("bpy 4.2 as a Python module crashes in wm.read_userpref")
     bpy = bpy_module
-    wiimote_prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
+    wiimote_prefs = extension_submodule("btf_addon.blender.wiimote.preferences")
     prefs = wiimote_prefs.wiimote_preferences()
     assert bpy.ops.btf.wiimote_reset_bindings() == {"FINISHED"}
     prefs.bindings[8].rate = 77.0  # B + Right: environment °/s
@@ -396,9 +396,10 @@ def test_bindings_are_saved_and_restored_with_the_preferences(bpy_module, instal
         code = (
             "import bpy\n"
             "bpy.ops.wm.read_userpref()\n"
-            "from bl_ext.user_default.btf_materials.btf_addon.blender import wiimote_preferences\n"
-            "p = wiimote_preferences.wiimote_preferences()\n"
-            "b = wiimote_preferences.current_bindings()[8]\n"
+            "from bl_ext.user_default.btf_materials.btf_addon.blender.wiimote import preferences"
+            " as wp\n"
+            "p = wp.wiimote_preferences()\n"
+            "b = wp.current_bindings()[8]\n"
             "print('RESTORED', len(p.bindings), b.action.name, b.input, b.rate, p.ir_sensitivity)\n"
             "from bl_ext.user_default.btf_materials.btf_addon.blender import compat\n"
             "compat.exit_python(0)\n"
@@ -491,13 +492,13 @@ def _end_any_session(op_mod) -> None:
     op_mod._running.clear()
     if session is not None:
         session.stop()
-    extension_submodule("btf_addon.blender.wiimote_overlay").hide()
+    extension_submodule("btf_addon.blender.wiimote.overlay").hide()
 
 
 @pytest.fixture
 def wiimote_operator(bpy_module, fresh_scene):
     """The operator module, with no live session before and after the test."""
-    op_mod = extension_submodule("btf_addon.blender.wiimote_operator")
+    op_mod = extension_submodule("btf_addon.blender.wiimote.operator")
     _end_any_session(op_mod)
     yield op_mod
     _end_any_session(op_mod)
@@ -506,7 +507,7 @@ def wiimote_operator(bpy_module, fresh_scene):
 @pytest.fixture
 def opened(wiimote_operator, monkeypatch):
     """Every transport the operator opens, and every session it makes."""
-    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
+    session_mod = extension_submodule("btf_addon.blender.wiimote.session")
     found = {"transports": [], "sessions": []}
 
     class Replay(wiimote_operator.ReplayTransport):
@@ -563,7 +564,7 @@ def test_a_binding_whose_kind_does_not_fit_its_action_is_reported(
 ):
     bpy = bpy_module
     scene_for_wiimote(bpy)
-    prefs = extension_submodule("btf_addon.blender.wiimote_preferences")
+    prefs = extension_submodule("btf_addon.blender.wiimote.preferences")
     errors = extension_submodule("btf_addon.controllers.transport")
     wiimote_prefs = prefs.wiimote_preferences()
     assert bpy.ops.btf.wiimote_reset_bindings() == {"FINISHED"}
@@ -616,7 +617,7 @@ def test_cancel_ends_the_session_and_a_new_one_can_start(
     """File > Open/New/Revert end a modal operator through ``cancel`` (no event)."""
     bpy = bpy_module
     scene_for_wiimote(bpy)
-    overlay = extension_submodule("btf_addon.blender.wiimote_overlay")
+    overlay = extension_submodule("btf_addon.blender.wiimote.overlay")
     path = tmp_path / "s.jsonl"
     dump(records(*START, (60.0, report_0x37())), path)  # realtime: still running in a minute
     context = FakeContext(bpy, [FakeArea()])
@@ -650,7 +651,7 @@ def test_modal_polls_look_the_view_up_again_and_redraw_only_on_change(
 
     bpy = bpy_module
     scene_for_wiimote(bpy)
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
     path = tmp_path / "s.jsonl"
     dump(records(*START, (60.0, report_0x37())), path)
@@ -701,7 +702,7 @@ def test_environment_rotation_skips_a_world_with_its_nodes_switched_off(
         monkeypatch.setattr(compat, "world_nodes_switched_off", lambda w: w == world)
     else:
         world.use_nodes = False
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
     ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
     before = len(world.node_tree.nodes)
@@ -712,7 +713,7 @@ def test_environment_rotation_skips_a_world_with_its_nodes_switched_off(
 
 def test_lights_per_redraw_stays_within_the_property_limits(bpy_module, fresh_scene):
     bpy = bpy_module
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
     settings = bpy.context.scene.btf_render
     prop = settings.bl_rna.properties["lights_per_redraw"]
@@ -734,9 +735,9 @@ def test_lights_per_frame_in_a_headset_changes_what_the_headset_reads(bpy_module
     scene = bpy.context.scene
     if not hasattr(scene, "btf_vr"):
         pytest.skip("this Blender build has no OpenXR: no VR session, no scene.btf_vr")
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
-    xr = extension_submodule("btf_addon.blender.xr")
+    xr = extension_submodule("btf_addon.blender.vr.preview")
     ctx = edits.EditContext(scene, bpy.context.view_layer)
     ctx.xr_source = lambda: _vr_state(Vector((0.0, -4.0, 1.0)))
     redraw, per_frame = scene.btf_render.lights_per_redraw, scene.btf_vr.lights_per_frame
@@ -776,8 +777,8 @@ def test_in_vr_targeted_edits_without_a_pointer_act_on_the_gazed_object(bpy_modu
     (mat_a, mat_b), (left, right) = two_cubes(bpy)
     bpy.context.view_layer.objects.active = left
     bpy.context.view_layer.update()
-    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    session_mod = extension_submodule("btf_addon.blender.wiimote.session")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     replay = extension_submodule("btf_addon.controllers.replay")
 
     def play(xr_state, stream):
@@ -806,8 +807,8 @@ def test_in_vr_reset_view_resets_the_navigation_and_keeps_the_camera(bpy_module,
     scene_for_wiimote(bpy)
     from mathutils import Quaternion, Vector
 
-    session_mod = extension_submodule("btf_addon.blender.wiimote_session")
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    session_mod = extension_submodule("btf_addon.blender.wiimote.session")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     replay = extension_submodule("btf_addon.controllers.replay")
     camera = bpy.context.scene.camera.matrix_world.copy()
     state = _vr_state((0.0, -5.0, 1.6))

@@ -14,7 +14,7 @@ from blender_helpers import extension_submodule, forest_world, with_nodes
 
 
 def _xr_actions():
-    return extension_submodule("btf_addon.blender.xr_actions")
+    return extension_submodule("btf_addon.blender.vr.actions")
 
 
 def _bindings():
@@ -27,7 +27,8 @@ def _is_registered(bpy) -> bool:
 
 @pytest.fixture
 def xr_registered(bpy_module, fresh_scene):
-    """xr_actions registered for the test (the lead's ``blender/xr.py`` may already have)."""
+    """The VR actions module registered for the test (``blender/vr/preview.py`` may already
+    have)."""
     module = _xr_actions()
     ours = not _is_registered(bpy_module)
     if ours:
@@ -302,7 +303,7 @@ def xr_event(bpy, state=(1.0, 0.0), location=(2.0, -10.0, 0.0), rotation=None):
 def test_pointed_material_and_exposure_edits_with_undo_steps(bpy_module, xr_registered):
     bpy = bpy_module
     xb = _bindings()
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     (left, right), (mat_a, mat_b) = two_cubes(bpy)
     bpy.ops.ed.undo_push(message="scene set up")
     ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
@@ -338,7 +339,7 @@ def test_pointed_material_and_exposure_edits_with_undo_steps(bpy_module, xr_regi
 def test_thumbstick_gesture_rotates_the_world_with_one_undo_step(bpy_module, xr_registered):
     bpy = bpy_module
     xb = _bindings()
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     two_cubes(bpy)
     ctx = edits.EditContext(bpy.context.scene, bpy.context.view_layer)
     run = xr_registered.XrActionRun(ctx, xb.xr_action("rotate_environment"))
@@ -361,7 +362,7 @@ def test_reset_action_resets_the_vr_navigation(bpy_module, xr_registered):
     from mathutils import Quaternion
 
     xb = _bindings()
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     two_cubes(bpy)
     state = SimpleNamespace(
         navigation_location=(1.0, 2.0, 3.0),
@@ -394,7 +395,7 @@ def test_gaze_target(bpy_module, fresh_scene):
     bpy = bpy_module
     from mathutils import Quaternion
 
-    pointer = extension_submodule("btf_addon.blender.wiimote_pointer")
+    pointer = extension_submodule("btf_addon.blender.wiimote.pointer")
     (left, right), _ = two_cubes(bpy)
     scene = bpy.context.scene
     state = SimpleNamespace(
@@ -409,7 +410,7 @@ def test_gaze_target(bpy_module, fresh_scene):
     state.viewer_pose_location = (0.0, -10.0, 0.0)  # between the cubes: nothing
     assert pointer.object_under_gaze(scene, state) is None
     # Outside a VR session (headless: none) the Wiimote's edits see no VR state.
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     assert edits.running_xr_state() is None
     assert edits.EditContext(scene, bpy.context.view_layer).xr() is None
 
@@ -417,7 +418,7 @@ def test_gaze_target(bpy_module, fresh_scene):
 def test_vr_orbit_zoom_and_reset_move_the_navigation(bpy_module, fresh_scene):
     from mathutils import Matrix, Quaternion, Vector
 
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     state = SimpleNamespace(
         navigation_location=Vector((0.0, -5.0, 0.0)),
         navigation_rotation=Quaternion(),
@@ -467,7 +468,7 @@ def test_view_edits_in_vr_move_the_navigation_not_the_camera(bpy_module, fresh_s
     bpy = bpy_module
     from mathutils import Quaternion, Vector
 
-    edits = extension_submodule("btf_addon.blender.wiimote_edits")
+    edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
     Action, Edit = actions.Action, actions.Edit  # noqa: N806 - the extension's classes
     two_cubes(bpy)  # the active cube at (−2, 0, 0) is the pivot

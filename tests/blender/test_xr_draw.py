@@ -1,9 +1,10 @@
-"""The VR session's per-eye draw callback (blender/xr.py), driven as Blender's VR session drives
-it: each eye's GPUOffScreen bound, its projection and view matrices loaded into ``gpu.matrix``,
-``draw_callback`` called, once per eye per frame. There is no headset here, so the eyes come
-from a headset profile (render/headsets.py: IPD, per-eye FOV, resolution, scaled down) and the
-session state is a stand-in with the attributes the callback reads (viewer pose, navigation
-scale). The reference for each eye is the standalone moderngl drawer given the same matrices.
+"""The VR session's per-eye draw callback (blender/vr/preview.py), driven as Blender's VR session
+drives it: each eye's GPUOffScreen bound, its projection and view matrices loaded into
+``gpu.matrix``, ``draw_callback`` called, once per eye per frame. There is no headset here, so
+the eyes come from a headset profile (render/headsets.py: IPD, per-eye FOV, resolution, scaled
+down) and the session state is a stand-in with the attributes the callback reads (viewer pose,
+navigation scale). The reference for each eye is the standalone moderngl drawer given the same
+matrices.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ def stand_in_session(head=HEAD):
 
 
 def new_preview(bpy, session, clock=None):
-    xr = extension_submodule("btf_addon.blender.xr")
+    xr = extension_submodule("btf_addon.blender.vr.preview")
     depsgraph = bpy.context.evaluated_depsgraph_get()
     source = xr.SceneSource(lambda: depsgraph, lambda: session)
     return xr.XRPreview(source) if clock is None else xr.XRPreview(source, clock=clock)
@@ -80,7 +81,7 @@ class EyeTargets:
         import gpu
         import mathutils
 
-        xr = extension_submodule("btf_addon.blender.xr")
+        xr = extension_submodule("btf_addon.blender.vr.preview")
         for eye, off in zip(eye_list or self.eyes, self.offscreens, strict=True):
             with off.bind(), gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
                 gpu.matrix.load_projection_matrix(mathutils.Matrix(eye.clip_from_view.tolist()))
@@ -335,7 +336,7 @@ def test_the_wiimote_help_appears_on_the_hud_while_shown(bpy_module, vr_scene):
     """The Wiimote's help overlay is a 2D viewport overlay outside VR; in the headset its rows
     are on the HUD quad (one more line per binding) while the Wiimote session shows help."""
     bpy = bpy_module
-    overlay = extension_submodule("btf_addon.blender.wiimote_overlay")
+    overlay = extension_submodule("btf_addon.blender.wiimote.overlay")
     bindings = extension_submodule("btf_addon.controllers.bindings").default_bindings()
     vr_scene.btf_vr.show_hud = True
     _, eye_list = eyes()
@@ -381,7 +382,7 @@ def test_a_failing_draw_is_kept_for_the_panel_not_raised(bpy_module, vr_scene, c
     it: Blender would print a traceback twice a frame. The message is kept for the panel,
     printed once, and the eye keeps Blender's image."""
     bpy = bpy_module
-    xr = extension_submodule("btf_addon.blender.xr")
+    xr = extension_submodule("btf_addon.blender.vr.preview")
 
     def broken():
         raise RuntimeError("the scene went away")
@@ -405,7 +406,7 @@ def test_a_failing_draw_is_kept_for_the_panel_not_raised(bpy_module, vr_scene, c
 
 def test_without_openxr_only_the_explanatory_panel_registers(bpy_module, installed):
     bpy = bpy_module
-    xr = extension_submodule("btf_addon.blender.xr")
+    xr = extension_submodule("btf_addon.blender.vr.preview")
     assert bpy.app.build_options.xr_openxr  # the pip bpy has XR: the full set is registered
     assert hasattr(bpy.types, "VIEW3D_PT_btf_vr") and hasattr(bpy.types.Scene, "btf_vr")
     xr.unregister()

@@ -1,4 +1,4 @@
-"""The XTAL Bridge operator's controller (blender/xtal_bridge.py) in background Blender.
+"""The XTAL Bridge operator's controller (blender/vr/xtal_bridge.py) in background Blender.
 
 Its wiring — export, the bridge's own thread, re-export when the depsgraph reports a change,
 controller actions applied as undoable edits, failures surfaced, a clean stop — is driven here
@@ -75,7 +75,7 @@ def bridge_scene(bpy_module, fresh_scene, tmp_path):
 
 
 def controller_with(bpy, scene, **stand_in):
-    module = extension_submodule("btf_addon.blender.xtal_bridge")
+    module = extension_submodule("btf_addon.blender.vr.xtal_bridge")
     made = []
 
     def make(exported, render_settings, settings):
@@ -153,7 +153,7 @@ def test_a_failure_to_start_is_reported_with_its_message(bpy_module, bridge_scen
 def test_the_operator_and_panel_register_without_blenders_own_openxr(bpy_module, installed):
     bpy = bpy_module
     assert hasattr(bpy.types, "BTF_OT_xtal_bridge") and hasattr(bpy.types.Scene, "btf_bridge")
-    xr = extension_submodule("btf_addon.blender.xr")
+    xr = extension_submodule("btf_addon.blender.vr.preview")
     xr.unregister()
     try:
         xr.register(xr_available=False)
@@ -183,7 +183,7 @@ def test_the_operator_drives_a_real_openxr_runtime(bpy_module, bridge_scene, tmp
     monkeypatch.setenv("XR_RUNTIME_JSON", str(manifest))
     monkeypatch.setenv("BTF_XR_TEST_SCRIPT", str(script))
     bridge_scene.btf_bridge.lights_total = 8
-    module = extension_submodule("btf_addon.blender.xtal_bridge")
+    module = extension_submodule("btf_addon.blender.vr.xtal_bridge")
     controller = module.BridgeController(bridge_scene, bpy.context.view_layer)
     controller.start(frames=3)
     try:

@@ -115,7 +115,7 @@ assert json.loads(scene.btf_accuracy.report)["rungs_done"] > 0
 """,
     "bridge operator": """
 import importlib
-module = importlib.import_module("btf_addon.blender.xtal_bridge")
+module = importlib.import_module("btf_addon.blender.vr.xtal_bridge")
 controller = module.BridgeController(scene, bpy.context.view_layer)
 controller.start(frames=3)
 controller.thread.join(120.0)

@@ -1,4 +1,4 @@
-"""The Compress BTF operator (blender/compress_operator.py) in bpy: writes the encoding,
+"""The Compress BTF operator (blender/tools/compress.py) in bpy: writes the encoding,
 reports a user error in one line, and a cancelled job writes nothing; its SVD choice (codec,
 rank, colour space) reaches the encoder. Small synthetic input
 (4×4 texels, small codebooks): ~3 s in all."""
@@ -9,7 +9,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from btf_addon.blender import compress_operator as op  # noqa: E402
+from btf_addon.blender.tools import compress as op  # noqa: E402
 from btf_addon.core.codecs import load_btf  # noqa: E402
 from btf_addon.core.container import write_container  # noqa: E402
 from btf_addon.core.encoders.mlvq import MLVQSettings  # noqa: E402

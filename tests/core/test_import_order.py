@@ -21,8 +21,8 @@ LAYERS: dict[str, int] = {
     "render": 3,
     "cl": 4,
     "gl": 4,
+    "controllers": 4,  # below xr/: the bridge builds its action set from it directly
     "xr": 5,
-    "controllers": 5,
     "diagnostics": 5,
     "blender": 6,
     "cli": 7,

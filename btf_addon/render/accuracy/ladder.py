@@ -1,7 +1,7 @@
 """What accuracy costs in time, for one scene: the ladder of quality knobs, the error of each
 rung against a high-quality reference, the Pareto front, a recommendation for a time budget or
 a target error, and the prediction of full-resolution time. bpy-free and device-free: rendering
-is a callable the caller passes (blender/accuracy_run.py binds it to the OpenCL final render).
+is a callable the caller passes (blender/accuracy/run.py binds it to the OpenCL final render).
 
 Knobs are data (``KNOBS``): one ``Knob`` per RenderSettings field (or any other value the render
 callable understands, passed through ``Rung.extra``). Adding a knob is one entry.
@@ -94,7 +94,7 @@ KNOBS: tuple[Knob, ...] = (
         Role.CLASS,
     ),
     # Not a RenderSettings field: every BTF material's texel filter (Rung.extra), applied by
-    # the render callable (blender/accuracy_run.py).
+    # the render callable (blender/accuracy/run.py).
     # Under the headlight nothing is laddered: the reference samples the World, which the
     # headlight does not show.
     Knob("texel_filter", "Texel Filter", ("NEAREST", "LINEAR"), _environment, Role.CLASS),

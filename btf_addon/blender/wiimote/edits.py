@@ -1,5 +1,5 @@
 """Controller actions → scene edits (bpy). One function per action; the session
-(``wiimote_session.py``) calls ``apply_edit`` for every Edit of the step function.
+(``session.py``) calls ``apply_edit`` for every Edit of the step function.
 
 Targets, in the words of issue 13:
 - materials: the active object's active slot steps through the file's BTF materials (those with
@@ -34,8 +34,8 @@ from pathlib import Path
 import bpy
 from mathutils import Matrix, Quaternion, Vector
 
-from ..controllers.actions import Action, Edit
-from . import compat
+from ...controllers.actions import Action, Edit
+from .. import compat
 
 
 class EditSkipped(Exception):  # noqa: N818 - a message for the status line, not a failure

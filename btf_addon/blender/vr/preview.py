@@ -35,18 +35,18 @@ import bpy
 import gpu
 import numpy as np
 
-from ..core.errors import BTFMaterialsError
-from ..gl.device import DrawState
-from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
-from ..gl.eye import EyeAccumulation
-from ..gl.hud import HudDrawer
-from ..render.frame_budget import FrameBudget
-from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
-from ..render.stereo import EyeId, EyeIdentifier
-from . import wiimote_overlay
-from .export import ExportCache, changed_ids, export_scene
-from .gpu_draw import BlenderGPUDevice
-from .sync import render_settings
+from ...core.errors import BTFMaterialsError
+from ...gl.device import DrawState
+from ...gl.drawer import ProgressiveDrawer, ViewAccumulation
+from ...gl.eye import EyeAccumulation
+from ...gl.hud import HudDrawer
+from ...render.frame_budget import FrameBudget
+from ...render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
+from ...render.stereo import EyeId, EyeIdentifier
+from ..export import ExportCache, changed_ids, export_scene
+from ..gpu_draw import BlenderGPUDevice
+from ..sync import render_settings
+from ..wiimote import overlay as wiimote_overlay
 
 # Into the eye's framebuffer: no depth written (Blender's depth there is its own), opaque or
 # premultiplied "over" Blender's image when the World is left out.
@@ -350,13 +350,13 @@ def has_openxr() -> bool:
 def register(xr_available: bool | None = None) -> None:
     """With XR: the settings, panel, operator, draw callback, handlers and VR actions. Without
     (``bpy.app.build_options.xr_openxr`` false): only a panel that says why."""
-    from . import xr_panel
+    from . import panel as xr_panel
 
     available = has_openxr() if xr_available is None else xr_available
     xr_panel.register(available)
     if not available:
         return
-    from . import xr_actions
+    from . import actions as xr_actions
 
     global _handler
     _handler = bpy.types.SpaceView3D.draw_handler_add(draw_callback, (), "XR", "POST_VIEW")
@@ -366,11 +366,11 @@ def register(xr_available: bool | None = None) -> None:
 
 
 def unregister() -> None:
-    from . import xr_panel
+    from . import panel as xr_panel
 
     global _handler, _preview
     if _handler is not None:
-        from . import xr_actions
+        from . import actions as xr_actions
 
         xr_actions.unregister()
         bpy.types.SpaceView3D.draw_handler_remove(_handler, "XR")

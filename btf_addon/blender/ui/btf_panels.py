@@ -5,8 +5,8 @@ from __future__ import annotations
 import bpy
 from bpy.types import Panel
 
-from ..render.settings import FinalMode, Lighting, RenderSettings
-from .addon import ENGINE_ID
+from ...render.settings import FinalMode, Lighting, RenderSettings
+from ..addon import ENGINE_ID
 
 
 class BTF_PT_material(Panel):
@@ -73,7 +73,7 @@ class BTF_PT_render_settings(Panel):
 def draw_device(layout) -> None:
     """Which device F12 renders on: the preferences' choice where it builds programs, else the
     first that does (cl/devices.py), and what the last render actually used."""
-    from . import final_render, preferences
+    from .. import final_render, preferences
 
     items = preferences.device_items()  # cached: OpenCL is probed once per session
     chosen = preferences.device_identifier(preferences.preferred_device())

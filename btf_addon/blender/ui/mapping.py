@@ -7,9 +7,9 @@ import bpy
 import numpy as np
 from bpy.types import Panel
 
-from ..core.errors import BTFError
-from ..core.mapping import Placement, uv_units_per_uv
-from .export.materials import BTFFileKey, file_key, load_cached, placement
+from ...core.errors import BTFError
+from ...core.mapping import Placement, uv_units_per_uv
+from ..export.materials import BTFFileKey, file_key, load_cached, placement
 
 #: UV density per mesh datablock, computed once: (pointer, loops, uv map, scale) → units/UV.
 _density_cache: dict[tuple, float | None] = {}

@@ -19,10 +19,10 @@ from bpy.props import (
 )
 from bpy.types import Operator, PropertyGroup
 
-from ..controllers.actions import ACTION_LABELS, Action
-from ..controllers.bindings import AXES, BUTTONS, Binding, Kind, default_bindings
-from ..controllers.transport import ControllerError
-from .addon import ADDON_PACKAGE
+from ...controllers.actions import ACTION_LABELS, Action
+from ...controllers.bindings import AXES, BUTTONS, Binding, Kind, default_bindings
+from ...controllers.transport import ControllerError
+from ..addon import ADDON_PACKAGE
 
 NONE = "NONE"
 ACTION_ITEMS = [(a.name, ACTION_LABELS[a][0], "", a.value) for a in Action]

@@ -13,14 +13,14 @@ ours the active one.
 
 Every non-pose action calls ``BTF_OT_xr_action`` (``btf.xr_action``) with the action's
 identifier. It reads ``event.xr`` (XrEventData: state, aim pose, user path), builds an ``Edit``
-of the shared vocabulary and applies it with ``wiimote_edits.apply_edit``: targeted actions
+of the shared vocabulary and applies it with ``wiimote/edits.py`` ``apply_edit``: targeted actions
 (material, exposure) act on the object under the controller's aim ray, else on the active
 object; discrete actions push one undo step each; a continuous action (op mode MODAL: an event
 every frame while the input is beyond its threshold, one on release) applies
 amount = rate · deflection · seconds between events and pushes one undo step when
 the gesture ends (the deflection of each event holds until the next, as the Wiimote's
 step function integrates). ``register``/``unregister`` add and remove exactly the handler and the
-operator; ``blender/xr.py`` calls them only when ``bpy.app.build_options.xr_openxr``.
+operator; ``blender/vr/preview.py`` calls them only when ``bpy.app.build_options.xr_openxr``.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ from bpy.app.handlers import persistent
 from bpy.props import EnumProperty
 from bpy.types import Operator
 
-from ..controllers.actions import ACTION_LABELS, TARGETED, Action, Edit
-from ..controllers.xr_bindings import (
+from ...controllers.actions import ACTION_LABELS, TARGETED, Action, Edit
+from ...controllers.xr_bindings import (
     ACTION_SET,
     OPERATOR,
     XR_ACTIONS,
@@ -44,8 +44,8 @@ from ..controllers.xr_bindings import (
     is_continuous,
     xr_action,
 )
-from .wiimote_edits import EditContext, EditSkipped, apply_edit
-from .wiimote_pointer import object_under_aim
+from ..wiimote.edits import EditContext, EditSkipped, apply_edit
+from ..wiimote.pointer import object_under_aim
 
 log = logging.getLogger(__name__)
 

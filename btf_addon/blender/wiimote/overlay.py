@@ -3,7 +3,7 @@
 One POST_PIXEL draw handler for every 3D view, added when a Wiimote session starts and removed
 when it ends; it draws only while the session's help is visible. Text goes through ``blf``
 (Blender's font drawing), on a dark backdrop so it reads over any material. Not drawn in VR
-itself: the VR session's HUD quad (blender/xr.py) shows the same rows through
+itself: the VR session's HUD quad (blender/vr/preview.py) shows the same rows through
 ``current_help``).
 """
 
@@ -14,7 +14,7 @@ import bpy
 import gpu
 from gpu_extras.batch import batch_for_shader
 
-from ..controllers.bindings import help_lines
+from ...controllers.bindings import help_lines
 
 _handler = None
 _source = None  # a callable → (visible, bindings)

@@ -29,10 +29,10 @@ import numpy as np
 from bpy.props import EnumProperty, IntProperty, StringProperty
 from bpy.types import Operator
 
-from ..core.errors import BTFError, BTFMaterialsError
-from ..core.fileio import atomic_write_path
-from ..gl.drawer import MAX_SIZE
-from ..gl.stereo_capture import (
+from ...core.errors import BTFError, BTFMaterialsError
+from ...core.fileio import atomic_write_path
+from ...gl.drawer import MAX_SIZE
+from ...gl.stereo_capture import (
     LAYOUTS,
     StereoCapture,
     capture_profile,
@@ -41,10 +41,10 @@ from ..gl.stereo_capture import (
     render_stereo,
     write_stereo,
 )
-from ..render.headsets import PROFILES, profile
-from ..render.settings import RenderSettings
-from .export import export_scene
-from .sync import render_settings
+from ...render.headsets import PROFILES, profile
+from ...render.settings import RenderSettings
+from ..export import export_scene
+from ..sync import render_settings
 
 #: Blender's image settings for an 8-bit RGB PNG (what ``render`` sets for a .png, less alpha:
 #: a capture has none).
@@ -178,7 +178,7 @@ class BTF_OT_stereo_capture(Operator):
     def execute(self, context):
         device = None
         if not bpy.app.background:  # the UI's GPU context is current in an operator
-            from .gpu_draw import BlenderGPUDevice
+            from ..gpu_draw import BlenderGPUDevice
 
             device = BlenderGPUDevice()
         try:

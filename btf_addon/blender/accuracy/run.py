@@ -18,16 +18,16 @@ from dataclasses import replace
 import bpy
 import numpy as np
 
-from ..cl.context import OpenCLUnavailableError, create_context
-from ..cl.renderer import CLRenderer
-from ..core.errors import BTFError
-from ..render.accuracy.ladder import KNOBS, Estimate, Rung, ladder, reference_settings
-from ..render.lighting import frame_lights
-from ..render.settings import RenderSettings
-from ..scene.analysis import analyse
-from ..scene.scene import Scene
-from .export import export_scene
-from .sync import frame_size, render_settings
+from ...cl.context import OpenCLUnavailableError, create_context
+from ...cl.renderer import CLRenderer
+from ...core.errors import BTFError
+from ...render.accuracy.ladder import KNOBS, Estimate, Rung, ladder, reference_settings
+from ...render.lighting import frame_lights
+from ...render.settings import RenderSettings
+from ...scene.analysis import analyse
+from ...scene.scene import Scene
+from ..export import export_scene
+from ..sync import frame_size, render_settings
 
 #: The preview's longest side in pixels: small enough that a ladder of ~13 rungs plus the
 #: reference takes seconds to a minute on a CPU, large enough for the error maps to show where.

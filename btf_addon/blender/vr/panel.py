@@ -91,7 +91,7 @@ class BTFVRSettings(PropertyGroup):
 def _switch_actions(settings, context) -> None:
     """Blender syncs one action set at a time: switch it in a running session."""
     if bpy.types.XrSessionState.is_running(context):
-        from . import xr_actions
+        from . import actions as xr_actions
 
         xr_actions.activate(context, use_btf=settings.controller_actions == "BTF")
 
@@ -125,7 +125,7 @@ class VIEW3D_PT_btf_vr(Panel):
     bl_category = "VR"
 
     def draw(self, context) -> None:
-        from . import xr
+        from . import preview as xr
 
         layout = self.layout
         settings = context.scene.btf_vr

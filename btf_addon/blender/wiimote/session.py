@@ -13,13 +13,13 @@ from collections.abc import Iterable
 
 import bpy
 
-from ..controllers.actions import ACTION_LABELS, TARGETED, Action, Edit
-from ..controllers.bindings import Binding
-from ..controllers.controls import Controls
-from ..controllers.transport import ControllerDisconnectedError, ControllerError
-from ..controllers.wiimote.driver import Wiimote
-from .wiimote_edits import EditContext, EditSkipped, apply_edit
-from .wiimote_pointer import object_under_gaze, object_under_pointer
+from ...controllers.actions import ACTION_LABELS, TARGETED, Action, Edit
+from ...controllers.bindings import Binding
+from ...controllers.controls import Controls
+from ...controllers.transport import ControllerDisconnectedError, ControllerError
+from ...controllers.wiimote.driver import Wiimote
+from .edits import EditContext, EditSkipped, apply_edit
+from .pointer import object_under_gaze, object_under_pointer
 
 log = logging.getLogger(__name__)
 

@@ -5,7 +5,7 @@ frame loop; OpenGL and OpenXR calls must stay on the thread that made them, so t
 in a thread of its own (``BridgeThread``) and Blender's main thread talks to it only through its
 thread-safe calls: ``set_scene`` (a re-export after the depsgraph reported changes),
 ``request_stop``, ``status`` and ``pop_edits`` (controller actions, applied here as undoable
-scene edits through the same ``wiimote_edits.apply_edit`` as the Wiimote and Blender's VR
+scene edits through the same ``wiimote/edits.py`` ``apply_edit`` as the Wiimote and Blender's VR
 session). ``BridgeController`` holds that logic without the modal machinery, so background
 Blender (tests, scripts) can drive it; the operator is a timer that calls ``tick`` and shows the
 status in the 3D view's header. It needs no OpenXR support in Blender's own build: the loader
@@ -22,12 +22,12 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 from bpy.types import Operator, Panel, PropertyGroup
 
-from ..controllers.actions import ACTION_LABELS
-from ..core.errors import BTFError
-from ..render.headsets import PROFILES
-from .export import ExportCache, changed_ids, export_scene
-from .sync import bridge_settings, render_settings
-from .wiimote_edits import EditContext, EditSkipped, apply_edit
+from ...controllers.actions import ACTION_LABELS
+from ...core.errors import BTFError
+from ...render.headsets import PROFILES
+from ..export import ExportCache, changed_ids, export_scene
+from ..sync import bridge_settings, render_settings
+from ..wiimote.edits import EditContext, EditSkipped, apply_edit
 
 # Export size: the bridge draws at the headset's eye size; the exported camera is unused.
 EXPORT_SIZE = (64, 64)
@@ -69,17 +69,6 @@ class BTFBridgeSettings(PropertyGroup):
         del bpy.types.Scene.btf_bridge
 
 
-def control_map():
-    """The VR controllers' actions (the same set as in Blender's VR session), for the bridge's
-    own OpenXR action set."""
-    from ..controllers import actions, xr_bindings
-    from ..xr.controls import ControlMap
-
-    return ControlMap(
-        xr_bindings.ACTION_SET, xr_bindings.XR_ACTIONS, actions.Edit, actions.CONTINUOUS
-    )
-
-
 class BridgeThread(threading.Thread):
     """Runs the bridge's own loop: start, frames until the session ends, close — all on this
     thread, which owns the bridge's OpenGL context. ``error``: what ended it early."""
@@ -91,7 +80,7 @@ class BridgeThread(threading.Thread):
         self.started_ok = threading.Event()
 
     def run(self) -> None:
-        from ..xr.bridge import BridgeError
+        from ...xr.bridge import BridgeError
 
         try:
             self.bridge.start()
@@ -135,7 +124,8 @@ class BridgeController:
 
     def start(self, frames: int | None = None) -> None:
         """Export and start the bridge's thread (failures to start surface in ``tick``)."""
-        from ..xr.bridge import XRBridge
+        from ...xr.bridge import XRBridge
+        from ...xr.controls import vr_controls
 
         exported = export_scene(self._depsgraph(), *EXPORT_SIZE, cache=self.cache, viewport=True)
         self.messages = list(exported.messages)
@@ -145,7 +135,7 @@ class BridgeController:
         if self._make_bridge is not None:
             self.bridge = self._make_bridge(exported, settings, options)
         else:
-            self.bridge = XRBridge(exported, settings, options, control_map())
+            self.bridge = XRBridge(exported, settings, options, vr_controls())
         self.thread = BridgeThread(self.bridge, frames)
         self.thread.start()
         bpy.app.handlers.depsgraph_update_post.append(self._on_depsgraph_update)

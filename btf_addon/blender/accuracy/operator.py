@@ -2,7 +2,7 @@
 Quality vs Time).
 
 The operator exports the scene at the preview size on the main thread (bpy), then renders the
-ladder on a worker thread (bpy-free: blender/accuracy_run.py + render/accuracy/ladder.py) while a
+ladder on a worker thread (bpy-free: blender/accuracy/run.py + render/accuracy/ladder.py) while a
 modal timer shows progress; Esc or the panel's Cancel stops it between launches, keeping the
 rungs done. Run from a script (``bpy.ops.btf.estimate_quality()``, no window), it runs to the
 end before returning. The result is stored on the scene as the report's JSON
@@ -22,15 +22,15 @@ import numpy as np
 from bpy.props import FloatProperty, IntProperty, PointerProperty, StringProperty
 from bpy.types import Operator, Panel, PropertyGroup
 
-from ..core.errors import BTFError
-from ..render.accuracy.ladder import run, settings_from_json, verify_recommendation
-from ..render.accuracy.report import error_plot, to_json
-from ..render.settings import RenderSettings
-from .accuracy_run import prepare, set_up
-from .addon import ENGINE_ID
-from .background_job import BackgroundJobModal
-from .preferences import preferred_device
-from .sync import render_settings
+from ...core.errors import BTFError
+from ...render.accuracy.ladder import run, settings_from_json, verify_recommendation
+from ...render.accuracy.report import error_plot, to_json
+from ...render.settings import RenderSettings
+from ..addon import ENGINE_ID
+from ..background_job import BackgroundJobModal
+from ..preferences import preferred_device
+from ..sync import render_settings
+from .run import prepare, set_up
 
 log = logging.getLogger(__name__)
 

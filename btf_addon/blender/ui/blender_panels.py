@@ -13,7 +13,7 @@ from __future__ import annotations
 import bpy
 from bpy.types import Panel
 
-from .addon import ENGINE_ID
+from ..addon import ENGINE_ID
 
 #: Blender's panels shown for this engine as they are (their COMPAT_ENGINES gain ENGINE_ID):
 #: they show only data this engine honours.

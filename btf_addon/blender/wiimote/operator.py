@@ -18,12 +18,12 @@ import bpy
 from bpy.props import BoolProperty, StringProperty
 from bpy.types import Operator, Panel
 
-from ..controllers.replay import ReplayTransport
-from ..controllers.transport import ControllerError
-from . import wiimote_overlay
-from .wiimote_edits import EditContext
-from .wiimote_preferences import current_bindings, wiimote_preferences
-from .wiimote_session import WiimoteSession
+from ...controllers.replay import ReplayTransport
+from ...controllers.transport import ControllerError
+from . import overlay as wiimote_overlay
+from .edits import EditContext
+from .preferences import current_bindings, wiimote_preferences
+from .session import WiimoteSession
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ def make_session(context, replay_path: str = "", realtime: bool = True) -> Wiimo
             raise ControllerError(f"recording not found: {path}")
         transport = ReplayTransport.from_file(path, realtime=realtime)
     else:
-        from ..controllers.hid_transport import open_wiimote
+        from ...controllers.hid_transport import open_wiimote
 
         record_to = None
         if prefs is not None and prefs.record_sessions:

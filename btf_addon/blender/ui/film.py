@@ -11,8 +11,8 @@ from __future__ import annotations
 import bpy
 from bpy.types import Panel
 
-from ..render.settings import FinalMode, RenderSettings
-from .addon import ENGINE_ID
+from ...render.settings import FinalMode, RenderSettings
+from ..addon import ENGINE_ID
 
 
 class BTF_PT_film(Panel):
