@@ -226,6 +226,6 @@ def _pack_principled(btf: PrincipledBTF, out: TableWriter) -> None:
     )
 
 
-register_codec("lambertian", 2, _pack_lambertian)
-register_codec("ggx", 3, _pack_ggx)
-register_codec("principled", 5, _pack_principled)
+register_codec("lambertian", LambertianBTF, 2, _pack_lambertian)
+register_codec("ggx", GGXBTF, 3, _pack_ggx)
+register_codec("principled", PrincipledBTF, 5, _pack_principled)

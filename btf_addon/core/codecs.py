@@ -1,34 +1,23 @@
-"""Codec registry and the one loader every tool uses: a path → a BTF."""
+"""The one loader every tool uses (a path → a BTF), over the codec registry (core/packed.py
+``register_codec``: each codec registers its name, class, device id and pack function at the
+end of its own module; importing them here is what registers them)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from . import btfbase_binary, image_sets, ubo2014
-from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from .dense import DenseBTF
+from . import analytic, btfbase_binary, dense, image_sets, microgeometry, packed, svd, ubo2014  # noqa: F401
 from .errors import BTFFormatError, UnsupportedBTFError
-from .microgeometry import MicrogeometryBTF
 from .mlvq import MLVQBTF
 from .model import BTF
-from .svd import SVDBTF
-
-CODECS: dict[str, type] = {
-    "mlvq": MLVQBTF,
-    "dense": DenseBTF,
-    "lambertian": LambertianBTF,
-    "ggx": GGXBTF,
-    "principled": PrincipledBTF,
-    "microgeometry": MicrogeometryBTF,
-    "svd": SVDBTF,
-}
 
 
 def codec_class(name: str) -> type:
-    try:
-        return CODECS[name]
-    except KeyError:
-        raise UnsupportedBTFError(f"unknown BTF codec {name!r}") from None
+    """The class of the codec ``name`` (a container's ``codec`` field)."""
+    codec = packed.codecs().get(name)
+    if codec is None or codec.cls is None:
+        raise UnsupportedBTFError(f"unknown BTF codec {name!r}")
+    return codec.cls
 
 
 def load_btf(path: str | Path) -> BTF:

@@ -143,4 +143,4 @@ def _pack(btf: DenseBTF, out: TableWriter) -> None:
         )
 
 
-register_codec("dense", 4, _pack)
+register_codec("dense", DenseBTF, 4, _pack)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from .model import BTF, BTFMeta, Queries, tile_size_from_params, tile_size_param, wrap_texel
+from .packed import register_codec
 
 #: Horizon-map azimuth bins; the soft shadow edge width in tan(elevation).
 N_AZIMUTH = 32
@@ -257,3 +258,6 @@ def leather(
     shade = 0.55 + 0.45 * (height - height.min()) / np.ptp(height)
     albedo = np.asarray(base_rgb)[None, None, :] * shade[..., None]
     return MicrogeometryBTF(height, albedo, texels, "leather", (tile_size_mm, tile_size_mm))
+
+
+register_codec("microgeometry", MicrogeometryBTF)  # numpy only: no device decode

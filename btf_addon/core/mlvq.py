@@ -350,4 +350,4 @@ def _pack(btf: MLVQBTF, out: TableWriter) -> None:
     out.set(f_beta=out.float_table(p.beta_angles_deg()), hdr_value=p.hdr_value)
 
 
-register_codec("mlvq", 1, _pack)
+register_codec("mlvq", MLVQBTF, 1, _pack)

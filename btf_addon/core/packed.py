@@ -235,32 +235,53 @@ class TableWriter:
 
 
 @dataclass(frozen=True)
-class PackedCodec:
-    """A codec the GPU back ends evaluate: its id (``CODEC_<NAME>`` in device code) and the
-    function writing its header slots and tables."""
+class Codec:
+    """The one registry record of a codec: its name (``BTFMeta.codec``, the container's
+    ``codec`` field), its class (what a container loads through ``from_params``), and where the
+    GPU back ends evaluate it, its id (``CODEC_<NAME>`` in device code) and the function
+    writing its header slots and tables (None for both: numpy only)."""
 
     name: str
-    codec_id: int
-    pack: Callable[[BTF, TableWriter], None]
+    cls: type | None
+    codec_id: int | None = None
+    pack: Callable[[BTF, TableWriter], None] | None = None
+
+    @property
+    def on_gpu(self) -> bool:
+        return self.codec_id is not None
 
 
-_CODECS: dict[str, PackedCodec] = {}
+_CODECS: dict[str, Codec] = {}
 
 
-def register_codec(name: str, codec_id: int, pack_fn: Callable[[BTF, TableWriter], None]) -> None:
-    """Make ``name`` (a ``BTFMeta.codec``) packable; called once by the codec's own module.
-    Ids are device constants: never reuse one, never 0 (an empty header)."""
-    taken = {c.codec_id: c.name for c in _CODECS.values() if c.name != name}
-    if codec_id <= 0 or codec_id in taken:
-        raise ValueError(f"codec id {codec_id} for {name!r} is invalid or taken by {taken}")
-    _CODECS[name] = PackedCodec(name, codec_id, pack_fn)
+def register_codec(
+    name: str,
+    cls: type | None,
+    codec_id: int | None = None,
+    pack_fn: Callable[[BTF, TableWriter], None] | None = None,
+) -> None:
+    """Register a codec; called once, at the end of the codec's own module. ``codec_id`` and
+    ``pack_fn`` make it packable for the GPU back ends; ids are device constants: never reuse
+    one, never 0 (an empty header)."""
+    if (codec_id is None) != (pack_fn is None):
+        raise ValueError(f"codec {name!r}: an id and a pack function, or neither")
+    if codec_id is not None:
+        taken = {c.codec_id: c.name for c in _CODECS.values() if c.name != name and c.on_gpu}
+        if codec_id <= 0 or codec_id in taken:
+            raise ValueError(f"codec id {codec_id} for {name!r} is invalid or taken by {taken}")
+    _CODECS[name] = Codec(name, cls, codec_id, pack_fn)
 
 
-def codecs() -> dict[str, PackedCodec]:
+def codecs() -> dict[str, Codec]:
     """Every registered codec by name (imports the codec modules, so all have registered)."""
     from . import codecs as _all_codecs  # noqa: F401 - registration happens at import
 
     return dict(_CODECS)
+
+
+def gpu_codecs() -> dict[str, Codec]:
+    """The codecs the GPU back ends evaluate (those with an id and a pack function)."""
+    return {name: c for name, c in codecs().items() if c.on_gpu}
 
 
 def defines() -> dict[str, int]:
@@ -280,7 +301,7 @@ def defines() -> dict[str, int]:
     out.update({f"M_{name.upper()}": first for name, (first, _) in BLOCK_SLOT.items()})
     out.update({f"MAPPING_{name}": i for name, i in MAPPING_IDS.items()})
     out.update({f"FILTER_{name}": i for name, i in FILTER_IDS.items()})
-    by_id = sorted(codecs().values(), key=lambda c: c.codec_id)
+    by_id = sorted(gpu_codecs().values(), key=lambda c: c.codec_id)
     out.update({f"CODEC_{c.name.upper()}": c.codec_id for c in by_id})
     return out
 
@@ -303,7 +324,7 @@ def pack(btf: BTF, importance: bool = False) -> PackedTables:
     while isinstance(btf, DelegatingBTF):
         btf = btf.btf
     codec = _CODECS.get(btf.meta.codec)
-    if codec is None:
+    if codec is None or not codec.on_gpu:
         raise UnsupportedBTFError(
             f"the GPU back ends (GLSL, OpenCL) do not evaluate {btf.meta.codec!r} BTFs; "
             "tabulate procedural presets first (synth --tabulate) or use the numpy back end"

@@ -360,4 +360,4 @@ def _pack(btf: SVDBTF, out: TableWriter) -> None:
     out.set(svd_channels=out.int_table(np.asarray(channels)), f_svd_colour=out.float_table(colour))
 
 
-register_codec("svd", 7, _pack)
+register_codec("svd", SVDBTF, 7, _pack)

@@ -130,7 +130,8 @@ def test_dense_tables_sit_at_their_header_offsets():
 
 
 def test_a_codec_registers_beside_its_code(monkeypatch):
-    """Adding a codec is one register_codec call: pack dispatches to it by meta.codec."""
+    """Adding a codec is one register_codec call (name, class, device id, pack function):
+    pack dispatches to it by meta.codec, and a container finds its class by the same name."""
     monkeypatch.setattr(packed, "_CODECS", dict(packed._CODECS))
 
     class Constant(LambertianBTF):
@@ -141,8 +142,11 @@ def test_a_codec_registers_beside_its_code(monkeypatch):
     def pack_constant(btf, out):
         out.set(albedo=(1.0, 2.0, 3.0), f_data=out.float_table(np.arange(5.0)))
 
-    packed.register_codec("constant", 9, pack_constant)
+    packed.register_codec("constant", Constant, 9, pack_constant)
     assert packed.defines()["CODEC_CONSTANT"] == 9
+    from btf_addon.core.codecs import codec_class
+
+    assert codec_class("constant") is Constant
     tables = packed.pack(Constant())
     ints, floats = _header(tables)
     assert ints[1] == 9 and list(floats[2:5]) == [1.0, 2.0, 3.0]
@@ -150,9 +154,9 @@ def test_a_codec_registers_beside_its_code(monkeypatch):
     assert start == packed.HEADER_FLOATS  # the first table follows the header
     assert list(tables.floats.ravel()[start : start + 5]) == [0, 1, 2, 3, 4]
     with pytest.raises(ValueError, match="taken"):
-        packed.register_codec("other", 9, pack_constant)  # device constants are unique
+        packed.register_codec("other", Constant, 9, pack_constant)  # device constants are unique
     with pytest.raises(ValueError, match="invalid"):
-        packed.register_codec("zero", 0, pack_constant)  # 0 is an empty header
+        packed.register_codec("zero", Constant, 0, pack_constant)  # 0 is an empty header
 
 
 def test_writer_refuses_unknown_slots_and_wrong_sizes():
