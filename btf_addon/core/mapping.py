@@ -34,6 +34,9 @@ from .packed import BLOCK_SLOT, FILTER_IDS, MAPPING_IDS, material_block
 #: Mapping and filter identifiers as Blender's enum items name them (blender/properties.py).
 MAPPINGS = tuple(MAPPING_IDS)
 TEXEL_FILTERS = tuple(FILTER_IDS)
+#: The texel filter where none is chosen: Blender's property default (blender/properties.py),
+#: also for plain-array scenes, so one scene looks the same from every entry point.
+DEFAULT_TEXEL_FILTER = "LINEAR"
 
 
 # --- texel filtering ----------------------------------------------------------------------------
@@ -63,7 +66,11 @@ def is_filterable(btf: BTF) -> bool:
 
 
 def filtered_evaluate(
-    btf: BTF, uv: np.ndarray, wi: np.ndarray, wo: np.ndarray, texel_filter: str = "LINEAR"
+    btf: BTF,
+    uv: np.ndarray,
+    wi: np.ndarray,
+    wo: np.ndarray,
+    texel_filter: str = DEFAULT_TEXEL_FILTER,
 ) -> np.ndarray:
     """``btf.evaluate`` with spatial filtering: uv (N, 2), wi/wo (N, 3) in the tangent frame;
     texel_filter 'LINEAR' (4 decodes at texel centres, bilinear weights) or 'NEAREST' (one
@@ -134,7 +141,7 @@ class Placement:
     """
 
     mapping: str = "UV"
-    texel_filter: str = "NEAREST"
+    texel_filter: str = DEFAULT_TEXEL_FILTER
     uv_scale: float = 1.0
     uv_rotation_rad: float = 0.0
     uv_offset: tuple[float, float] = (0.0, 0.0)

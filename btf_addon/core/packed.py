@@ -122,7 +122,7 @@ def _float_slots() -> dict[str, tuple[int, int]]:
 #: its texture coordinates (core/mapping.py computes every value; kernels/include/btf_surface.h
 #: and shaders/btf_mapping_lib.glsl read them as ``M_<NAME>``). Values, in order:
 #: material: index of the material's packed tables; mapping: MAPPING_UV | MAPPING_BOX;
-#: texel_filter: FILTER_NEAREST | FILTER_LINEAR; exposure: the multiplier 2^stops;
+#: texel_filter: FILTER_LINEAR | FILTER_NEAREST; exposure: the multiplier 2^stops;
 #: uv_matrix: 2×2 row-major A and uv_offset c: texture coordinates = A·s + c, where s is the
 #: mesh UV (UV mapping) or a box projection's 2D coordinates (Box mapping);
 #: box_blend: blend width of the box projection's weights (0 = one projection per point);
@@ -139,9 +139,11 @@ MATERIAL_BLOCK: tuple[tuple[str, int], ...] = (
     ("box_from_world", 12),
 )
 MATERIAL_BLOCK_FLOATS = 32  # floats reserved per block (a GLSL texture row, an OpenCL stride)
-#: Enumerations of the block (device constants: never renumber).
+#: Enumerations of the block, numbered as Blender's EnumProperty items (blender/properties.py
+#: ``mapping``, ``texel_filter``): one meaning per number on both sides. They reach device code
+#: as defines (MAPPING_*, FILTER_*), so device code never spells a number.
 MAPPING_IDS = {"UV": 0, "BOX": 1}
-FILTER_IDS = {"NEAREST": 0, "LINEAR": 1}
+FILTER_IDS = {"LINEAR": 0, "NEAREST": 1}
 
 
 def _block_slots() -> dict[str, tuple[int, int]]:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.envmap import Environment
-from ..core.mapping import Placement, uv_units_per_uv
+from ..core.mapping import DEFAULT_TEXEL_FILTER, Placement, uv_units_per_uv
 from ..core.model import BTF
 from ..core.packed import MATERIAL_BLOCK_FLOATS
 from .lights import Light
@@ -23,8 +23,8 @@ class Material:
 
     uv_scale: texture repeats per UV unit (× the real-world factor when on); uv_rotation_rad:
     rotation in UV space; uv_offset: (2,) tiles; exposure: brightness in stops
-    (value × 2^exposure); mapping: 'UV' | 'BOX'; texel_filter: 'NEAREST' | 'LINEAR' (the
-    plain-array default is today's nearest look; Blender's property defaults to LINEAR);
+    (value × 2^exposure); mapping: 'UV' | 'BOX'; texel_filter: 'LINEAR' | 'NEAREST' (the
+    default is Blender's property's, core/mapping.py ``DEFAULT_TEXEL_FILTER``);
     real_world: size the tile from its physical size; tile_size_mm: (u, v) mm overriding the
     BTF's own (None: use ``btf.meta.tile_size_mm``, which may itself be unknown);
     box_space: 'OBJECT' | 'WORLD'; box_blend: blend width of the box projections.
@@ -36,7 +36,7 @@ class Material:
     exposure: float = 0.0
     name: str = ""
     mapping: str = "UV"
-    texel_filter: str = "NEAREST"
+    texel_filter: str = DEFAULT_TEXEL_FILTER
     uv_offset: tuple[float, float] = (0.0, 0.0)
     real_world: bool = False
     tile_size_mm: tuple[float, float] | None = None

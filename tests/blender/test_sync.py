@@ -139,3 +139,19 @@ def test_every_entry_point_reads_blender_through_sync(package):
         if path.relative_to(ROOT).as_posix() != SYNC:
             offenders += _reads(path)
     assert offenders == []
+
+
+def test_one_meaning_per_enum_number_and_one_default(bpy_module, installed):
+    """The material's mapping and texel filter: Blender's EnumProperty numbers are the packed
+    block's numbers (core/packed.py), and the plain-array defaults are the properties'."""
+    packed = extension_submodule("btf_addon.core.packed")
+    mapping = extension_submodule("btf_addon.core.mapping")
+    scene = extension_submodule("btf_addon.scene.scene")
+    props = bpy_module.types.Material.bl_rna.properties["btf"].fixed_type.properties
+    for name, ids in (("texel_filter", packed.FILTER_IDS), ("mapping", packed.MAPPING_IDS)):
+        items = {item.identifier: item.value for item in props[name].enum_items}
+        assert items == ids, name
+    assert mapping.Placement().texel_filter == props["texel_filter"].default
+    assert mapping.Placement().mapping == props["mapping"].default
+    field = scene.Material.__dataclass_fields__["texel_filter"]
+    assert field.default == props["texel_filter"].default

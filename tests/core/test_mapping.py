@@ -95,7 +95,7 @@ def test_box_weights_blend_and_hard_selection():
 def test_packed_block_defines_and_checks():
     d = defines()
     assert d["MATERIAL_BLOCK_FLOATS"] == MATERIAL_BLOCK_FLOATS
-    assert d["MAPPING_BOX"] == 1 and d["FILTER_LINEAR"] == 1
+    assert d["MAPPING_BOX"] == 1 and d["FILTER_LINEAR"] == 0 and d["FILTER_NEAREST"] == 1
     assert d["M_BOX_FROM_WORLD"] + 12 <= MATERIAL_BLOCK_FLOATS
     with pytest.raises(KeyError, match="missing"):
         material_block(material=0)
