@@ -5,7 +5,8 @@ zip bundles (pocl-binary-distribution 3.0, LLVM 14) fails with "unknown target C
 on CPUs newer than its LLVM (AMD Zen 5 class). So the first time a device is used it builds a
 tiny probe program (``probe``); a device that cannot is skipped, with the compiler's reason
 kept. The verdict is cached in memory and on disk beside the kernel cache, keyed by platform,
-device and driver version, so a new driver is probed again and an old one never twice.
+device, driver version and machine (host and CPU), so a new driver or another farm node is
+probed again and the same one never twice.
 
 The order devices are tried in (``candidate_order``): the one the user chose, then GPUs (most
 compute units first), then CPU drivers registered with the system, then the bundled PoCL.
@@ -15,6 +16,7 @@ not a reason to try the next one: that is a bug to see, not to hide behind anoth
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import re
@@ -62,10 +64,35 @@ class DeviceInfo:
 
     @property
     def probe_key(self) -> str:
-        return "|".join((self.platform, self.driver, self.name, self.driver_version))
+        """Where the verdict holds: this driver and device on this machine. The machine is in
+        the key because a device name says little about the CPU under it ("pthread-AMD EPYC"
+        is every EPYC generation) and a cache in a shared home folder serves farm nodes of
+        several kinds."""
+        return "|".join(
+            (self.platform, self.driver, self.name, self.driver_version, _machine_identity())
+        )
 
     def to_json(self) -> dict:
         return {**asdict(self), "label": self.label}
+
+
+@functools.cache
+def _machine_identity() -> str:
+    """Host name and a digest of the CPU's model and feature flags (Linux; the processor
+    string elsewhere): what a compiler's target choice depends on."""
+    import hashlib
+    import platform
+
+    cpu = platform.processor()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            cpu = (
+                "".join(line for line in fh if line.startswith(("model name", "flags"))).strip()
+                or cpu
+            )
+    except OSError:
+        pass
+    return f"{platform.node()}:{hashlib.sha256(cpu.encode()).hexdigest()[:12]}"
 
 
 @dataclass(frozen=True)

@@ -167,6 +167,12 @@ def test_the_verdict_is_cached_on_disk_per_driver(injected, monkeypatch):
     report = {row["label"]: row for row in devices.device_report()}
     assert injected.builds.count(newer_device) == 1 and injected.builds.count(fake_device) == 1
     assert report[newer.label]["builds"] and not report[fake.label]["builds"]
+    # Another machine sharing the cache folder (a farm node, a shared home): probed again,
+    # since one device name ("pthread-AMD EPYC") covers CPUs its compiler may not target.
+    monkeypatch.setattr(devices, "_verdicts", {})
+    monkeypatch.setattr(devices, "_machine_identity", lambda: "another-node:0123456789ab")
+    devices.device_report()
+    assert injected.builds.count(fake_device) == 2
 
 
 def test_report_marks_the_device_f12_uses(injected):
