@@ -123,7 +123,8 @@ def test_ssim_matches_its_closed_form_on_flat_images_and_grows_with_noise(rng):
 
     a, b = np.full((20, 20, 3), 0.2), np.full((20, 20, 3), 0.5)
     mx, my = float(srgb_encode(np.float64(0.2))), float(srgb_encode(np.float64(0.5)))
-    expected = (2 * mx * my + acc.SSIM_C1) / (mx * mx + my * my + acc.SSIM_C1)
+    c1 = 0.01**2  # Wang et al. 2004: (K1 · L)², L = 1 for displayed values
+    expected = (2 * mx * my + c1) / (mx * mx + my * my + c1)
     assert acc.ssim_loss(a, b) == pytest.approx(1 - expected, rel=1e-9)
     assert acc.ssim_loss(a, a) == pytest.approx(0.0, abs=1e-12)
     ref = np.clip(rng.uniform(0.0, 0.8, (24, 24, 3)), 0, 1)

@@ -22,6 +22,7 @@ import numpy as np
 from ..grid import UBO2003, RingGrid
 from ..mlvq import LDR_VALUE_SCALE
 from ..model import BTF
+from ..ssim import ssim_map
 
 _FLOAT_TABLES = ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale")
 
@@ -104,30 +105,24 @@ def grid_psnr(samples: np.ndarray, decoded: np.ndarray) -> float:
     return math.inf if mse == 0 else 10.0 * math.log10(255.0**2 / mse)
 
 
-#: SSIM's stabilising constants for peak L = 255 (Wang et al. 2004: K1 = 0.01, K2 = 0.03).
-_C1, _C2 = (0.01 * 255.0) ** 2, (0.03 * 255.0) ** 2
-
-
 def ssim(
     reference: BTF,
     encoded: BTF,
     n_pairs: int = 32,
     crop: int = 64,
-    window: int = 7,
     seed: int = 0,
     view_grid: RingGrid = UBO2003,
     light_grid: RingGrid = UBO2003,
 ) -> float:
-    """SSIM-like similarity (1 = identical) of the texel images per direction: mean SSIM over
-    ``n_pairs`` seeded view × light pairs of the grids (all when fewer), the R, G and B images
-    on the 8-bit scale (peak 255, values above it kept: HDR highlights count), each image the
-    top-left ``crop`` × ``crop`` texels (0 = whole tile) at texel centres, local statistics
-    over ``window`` × ``window`` box windows (clamped to the image; a 1-texel image compares
+    """Similarity (1 = identical) of the texel images per direction: mean SSIM (core/ssim.py:
+    the project's one SSIM, Gaussian windows with mirrored edges) over ``n_pairs`` seeded
+    view × light pairs of the grids (all when fewer), the R, G and B images on the 8-bit scale
+    (peak 255, values above it kept: HDR highlights count), each image the top-left
+    ``crop`` × ``crop`` texels (0 = whole tile) at texel centres (a 1-texel image compares
     means only). Measures what PSNR does not: whether the spatial structure of the texture
     survives (blur or blockiness lowers it even at equal mean squared error)."""
     w, h = reference.meta.width, reference.meta.height
     cw, ch = (w, h) if crop <= 0 else (min(w, crop), min(h, crop))
-    win = max(1, min(window, cw, ch))
     tv, pv = view_grid.angles_deg()
     ti, pi = light_grid.angles_deg()
     n_all = len(tv) * len(ti)
@@ -146,15 +141,6 @@ def ssim(
     a = reference.evaluate_angles(q).astype(np.float64).reshape(shape) / LDR_VALUE_SCALE
     b = encoded.evaluate_angles(q).astype(np.float64).reshape(shape) / LDR_VALUE_SCALE
 
-    def local_mean(x: np.ndarray) -> np.ndarray:
-        views = np.lib.stride_tricks.sliding_window_view(x, (win, win), axis=(1, 2))
-        return views.mean(axis=(-2, -1))
-
-    mu_a, mu_b = local_mean(a), local_mean(b)
-    var_a = local_mean(a * a) - mu_a**2
-    var_b = local_mean(b * b) - mu_b**2
-    cov = local_mean(a * b) - mu_a * mu_b
-    s = ((2 * mu_a * mu_b + _C1) * (2 * cov + _C2)) / (
-        (mu_a**2 + mu_b**2 + _C1) * (var_a + var_b + _C2)
-    )
+    # SSIM per colour image: the images' rows and columns last.
+    s = ssim_map(a.transpose(0, 3, 1, 2), b.transpose(0, 3, 1, 2), peak=255.0)
     return float(np.mean(s))

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from ...core import ssim
 from ...core.colour import srgb_encode
 from ..settings import FinalMode, Lighting, RenderSettings
 
@@ -229,10 +230,6 @@ def error_map(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean((a - r) ** 2, axis=-1)) / rms_ref
 
 
-SSIM_SIGMA = 1.5  # Wang et al. 2004's Gaussian window
-SSIM_C1, SSIM_C2 = 0.01**2, 0.03**2  # their constants for a dynamic range of 1
-
-
 def display_luminance(image: np.ndarray) -> np.ndarray:
     """(h, w, 3) linear RGB → (h, w) luminance of the displayed image: sRGB-encoded after
     clipping to [0, 1] (the Standard view), Rec. 709 weights on the encoded values (as SSIM
@@ -242,38 +239,14 @@ def display_luminance(image: np.ndarray) -> np.ndarray:
 
 
 def ssim_map(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(h, w) float64 SSIM per pixel (1 = identical) of the displayed luminances."""
-    x, y = display_luminance(image), display_luminance(reference)
-    mx, my = _blur(x), _blur(y)
-    sxx = _blur(x * x) - mx * mx
-    syy = _blur(y * y) - my * my
-    sxy = _blur(x * y) - mx * my
-    return ((2 * mx * my + SSIM_C1) * (2 * sxy + SSIM_C2)) / (
-        (mx * mx + my * my + SSIM_C1) * (sxx + syy + SSIM_C2)
-    )
+    """(h, w) float64 SSIM per pixel (1 = identical) of the displayed luminances (core/ssim.py,
+    dynamic range 1)."""
+    return ssim.ssim_map(display_luminance(image), display_luminance(reference), peak=1.0)
 
 
 def ssim_loss(image: np.ndarray, reference: np.ndarray) -> float:
     """1 − mean SSIM: 0 for identical images, larger for worse."""
     return float(1.0 - np.mean(ssim_map(image, reference)))
-
-
-def _blur(a: np.ndarray) -> np.ndarray:
-    """Separable Gaussian (σ = SSIM_SIGMA, radius 3σ) with mirrored edges."""
-    radius = math.ceil(3 * SSIM_SIGMA)
-    taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / SSIM_SIGMA) ** 2)
-    taps /= taps.sum()
-    for axis in (0, 1):
-        n = a.shape[axis]
-        index = np.abs(np.arange(-radius, n + radius))  # mirror at 0 …
-        index = np.where(index >= n, 2 * (n - 1) - index, index)  # … and at n − 1
-        index = np.clip(index, 0, n - 1)  # images narrower than the window
-        padded = np.take(a, index, axis=axis)
-        out = np.zeros_like(a)
-        for i, w in enumerate(taps):
-            out += w * np.take(padded, np.arange(i, i + n), axis=axis)
-        a = out
-    return a
 
 
 def _rgb(image: np.ndarray) -> np.ndarray:
