@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
+from ..cl.frame import render_frame
 from ..cl.programs import OpenCLCompileError, is_cached
 from ..cl.renderer import KERNELS, CLRenderer, program_defines
 from ..core.errors import BTFError
@@ -94,10 +95,6 @@ def render(engine, depsgraph) -> None:
         for skipped, why in cl_context.skipped:  # the user's device, or a better one, cannot build
             engine.report({"WARNING"}, f"OpenCL device {skipped.label} skipped: {why}")
         renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
-        # None: the environment's choice (BTF_FIXED_LAUNCHES), as the command line.
-        renderer.fixed_launch_split = settings.fixed_launch_split or None
-        renderer.importance_sampling = settings.btf_importance_sampling
-        renderer.transparent = transparent
         for note in renderer.notes:
             engine.report({"WARNING"}, note)
     except OpenCLCompileError as exc:
@@ -159,24 +156,13 @@ def render(engine, depsgraph) -> None:
     result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name)
     layer = result.layers[0]
     check_result_size(layer, region)
-    if sampled:
-        # Depth, normal and UV come from the deterministic kernel with one light (cheap).
-        passes = renderer.render_direct(lights.prefix(1))
 
-        def show(combined: np.ndarray) -> None:
-            """Progressive display of the Sampled mode: the image after each pass."""
-            set_pass(layer.passes["Combined"], region, combined[::-1])
-            engine.update_result(result)
+    def show(combined: np.ndarray) -> None:
+        """Progressive display of the Sampled mode: the image after each pass."""
+        set_pass(layer.passes["Combined"], region, combined[::-1])
+        engine.update_result(result)
 
-        passes.combined = renderer.render_sampled(
-            settings.samples,
-            settings.seed,
-            progress,
-            max_bounces=settings.max_bounces,
-            preview=show,
-        )
-    else:
-        passes = renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)
+    passes = render_frame(renderer, settings, lights, progress, show, transparent)
     top_first = {
         "Combined": passes.combined,  # Film › Transparent: alpha is the kernels' coverage
         "Depth": passes.depth[..., None],

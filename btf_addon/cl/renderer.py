@@ -11,13 +11,17 @@ Anti-aliasing follows the film's pixel filter (render/pixel_filter.py; Blender's
 Blackman-Harris 1.5 px, unless told otherwise; ``film=None``: every ray through the pixel
 centre, the images of before): the Sampled mode places each sample in the filter's footprint
 by importance sampling; the Virtual Lights mode takes ``aa_samples`` subpixel positions.
+
+The film and the materials' texel filter change between renders (``set_film``,
+``set_texel_filter``: the accuracy report's rungs) without a second BVH build or table upload;
+cl/frame.py ``render_frame`` runs F12's sequence of calls for one frame.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -77,7 +81,6 @@ class CLRenderer:
 
         self.cl = cl
         self.scene, self.width, self.height, self.ctx = scene, width, height, cl_context
-        self.film = film
         self.features = features or analyse(scene)
         #: True: launches split the same way every run (bit-identical frames, render/launch.py);
         #: None: as BTF_FIXED_LAUNCHES says; False: sized by measured cost.
@@ -98,6 +101,11 @@ class CLRenderer:
         self.kernel_mis = cl.Kernel(program, "render_env_mis")
         self._upload_geometry()
         self._upload_materials()
+        self._film: PixelFilter | None = None
+        self.filter_table = None  # set_film's buffer
+        self.set_film(film)
+        self._texel_filter: str | None = None
+        self._upload_blocks()
         env = scene.environment
         rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
         self.env = self._buffer(rgba.ravel(), np.float32)
@@ -174,8 +182,44 @@ class CLRenderer:
         self.ints = self._buffer(np.concatenate(ints) if ints else [], np.float32)
         self.floats = self._buffer(np.concatenate(floats) if floats else [], np.float32)
         self.material_offsets = self._buffer(offsets, np.int32)
-        # One parameter block per mesh (core/packed.py MATERIAL_BLOCK: mapping, filter, exposure).
-        self.material_params = self._buffer(self.scene.material_blocks().ravel(), np.float32)
+
+    @property
+    def film(self) -> PixelFilter | None:
+        """The pixel filter the renders follow (None: pixel centres)."""
+        return self._film
+
+    def set_film(self, film: PixelFilter | None) -> None:
+        """Render with this film from now on. Only its inverse-CDF table travels (zeros without
+        a film: every offset the pixel centre)."""
+        if self.filter_table is not None and film == self._film:
+            return
+        table = np.zeros(FILTER_TABLE_SIZE) if film is None else film.table()
+        self.filter_table = self._buffer(table, np.float32)
+        self._film = film
+
+    @property
+    def texel_filter(self) -> str | None:
+        """The texel filter every material is drawn with; None: each material's own."""
+        return self._texel_filter
+
+    def set_texel_filter(self, texel_filter: str | None) -> None:
+        """Draw every material with this texel filter ('LINEAR' | 'NEAREST') from now on; None:
+        each material's own. Only the material parameter blocks travel, where the filter is a
+        slot; the packed tables are the same for both filters."""
+        if texel_filter != self._texel_filter:
+            self._upload_blocks(texel_filter)
+
+    def _upload_blocks(self, texel_filter: str | None = None) -> None:
+        """One parameter block per mesh (core/packed.py MATERIAL_BLOCK: mapping, texel filter,
+        exposure), with every material's texel filter replaced unless ``texel_filter`` is None."""
+        scene = self.scene
+        if texel_filter is not None:
+            materials = [replace(m, texel_filter=texel_filter) for m in scene.materials]
+            scene = replace(scene, materials=materials)
+        # Another name raises here (core/mapping.py Placement), before any state changes.
+        blocks = scene.material_blocks()
+        self.material_params = self._buffer(blocks.ravel(), np.float32)
+        self._texel_filter = texel_filter
 
     def _scene_args(self) -> list:
         """Kernel arguments shared by both modes, after the view: geometry and materials."""
@@ -202,13 +246,6 @@ class CLRenderer:
             self.scene_lights,
             self.scene_light_count,
         ]
-
-    def _filter_table(self):
-        """The film's inverse-CDF table (render/pixel_filter.py) as a buffer; zeros without a
-        film (every offset the pixel centre)."""
-        if self.film is None:
-            return self._buffer(np.zeros(FILTER_TABLE_SIZE), np.float32)
-        return self._buffer(self.film.table(), np.float32)
 
     def _world_from_clip(self):
         cam = self.scene.camera
@@ -297,7 +334,7 @@ class CLRenderer:
             points,
             np.int32(aa),
             np.int32(split),
-            self._filter_table(),
+            self.filter_table,
             np.int32(self.transparent),
         ]
         tail_args = [lights_buf, np.int32(n_lights), self.eps, *self._env_args(), *film_args]
@@ -350,7 +387,7 @@ class CLRenderer:
         world_args = [self.eps, *self._env_args(), *self.env_tables]
         film_args = [
             np.int32(self.film is not None),
-            self._filter_table(),
+            self.filter_table,
             np.int32(self.transparent),
         ]
 

@@ -3,22 +3,23 @@ vs Time operator alike.
 
 The scene is exported once, at a reduced size (the preview), on the calling (main) thread;
 after that everything is bpy-free and may run on a worker thread: each rung is rendered by the
-final render's own OpenCL renderer (cl/renderer.py) exactly as F12 renders it
-(blender/final_render.py: the frame's virtual lights from render/lighting.py, ``render_direct``
-for Virtual Lights; ``render_direct`` with one light for the passes then ``render_sampled`` for
-Sampled). No GLSL fallback: without OpenCL there is no F12 to measure, so it is an error.
+final render's own OpenCL renderer (cl/renderer.py) exactly as F12 renders it: the frame's
+virtual lights from render/lighting.py, then F12's sequence of calls (cl/frame.py
+``render_frame``). One renderer serves every rung: a rung's film and texel filter are set on it
+(a few small uploads), so the scene's BVH and tables are built and uploaded once. No GLSL
+fallback: without OpenCL there is no F12 to measure, so it is an error.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import replace
 
 import bpy
 import numpy as np
 
 from ...cl.context import OpenCLUnavailableError, create_context
+from ...cl.frame import render_frame
 from ...cl.renderer import CLRenderer
 from ...core.errors import BTFError
 from ...render.accuracy.ladder import KNOBS, Estimate, Rung, ladder, reference_settings
@@ -56,15 +57,16 @@ class LadderRenderer:
         height: int,
         device_index: int | None = None,
         base: RenderSettings | None = None,
+        transparent: bool = False,
     ):
         self.scene, self.width, self.height = scene, width, height
+        self.transparent = transparent  # Film › Transparent, as F12 renders it
         self.device_index = device_index
         self.base = base or RenderSettings()
         self.ctx = None
-        # One renderer per (film, texel filter): both are fixed when a renderer uploads the
-        # scene. The first is made by setup() with the scene's own; a ladder adds at most
-        # three more (anti-aliasing off, the other texel filter, the reference's).
-        self.renderers: dict[tuple, CLRenderer] = {}
+        #: Every rung's renderer (None before setup), the scene's own film and texel filters
+        #: until a rung sets others.
+        self.renderer: CLRenderer | None = None
         self.setup_seconds, self.device_name = 0.0, ""
 
     def setup(self) -> None:
@@ -79,32 +81,16 @@ class LadderRenderer:
                 f"unavailable: {exc}"
             ) from None
         self.device_name = self.ctx.device_name
-        self._renderer(self.base.film(), None)
+        self.renderer = CLRenderer(
+            self.scene, self.width, self.height, self.ctx, analyse(self.scene), self.base.film()
+        )
         self.setup_seconds = time.perf_counter() - t0
-
-    @property
-    def renderer(self) -> CLRenderer | None:
-        """The renderer of the scene's own film and texel filters (None before setup)."""
-        return self.renderers.get((self.base.film(), None))
-
-    def _renderer(self, film, texel_filter: str | None) -> CLRenderer:
-        key = (film, texel_filter)
-        if key not in self.renderers:
-            scene = self.scene
-            if texel_filter is not None:  # every BTF material's texel filter replaced
-                scene = replace(
-                    scene,
-                    materials=[replace(m, texel_filter=texel_filter) for m in scene.materials],
-                )
-            self.renderers[key] = CLRenderer(
-                scene, self.width, self.height, self.ctx, analyse(scene), film=film
-            )
-        return self.renderers[key]
 
     def __call__(self, rung: Rung, progress: Callable[[float], bool]) -> np.ndarray | None:
         self.setup()
         settings = rung.settings
-        renderer = self._renderer(settings.film(), rung.value("texel_filter"))
+        # None (no texel filter knob on this rung): each material's own, as F12.
+        self.renderer.set_texel_filter(rung.value("texel_filter"))
         stopped = False
 
         def step(fraction: float) -> bool:
@@ -114,13 +100,8 @@ class LadderRenderer:
 
         cam = self.scene.camera
         lights = frame_lights(settings, self.scene, cam.world_from_camera[:3, 2])
-        if settings.sampled:  # as F12: the passes from one light, then the paths
-            renderer.render_direct(lights.prefix(1))
-            image = renderer.render_sampled(
-                settings.samples, settings.seed, step, max_bounces=settings.max_bounces
-            )
-        else:
-            image = renderer.render_direct(lights, step, aa_samples=settings.aa_samples).combined
+        image = render_frame(self.renderer, settings, lights, step, transparent=self.transparent)
+        image = image.combined
         return None if stopped else np.asarray(image[..., :3], dtype=np.float32)
 
 
@@ -157,7 +138,9 @@ def prepare(
     t0 = time.perf_counter()
     exported = export_scene(depsgraph, *preview)
     export_seconds = time.perf_counter() - t0
-    renderer = LadderRenderer(exported, *preview, device_index, base)
+    renderer = LadderRenderer(
+        exported, *preview, device_index, base, transparent=scene.render.film_transparent
+    )
     estimate = Estimate(
         base, preview, full, reference_settings(base, reference_samples, reference_bounces)
     )

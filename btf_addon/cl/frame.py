@@ -1,0 +1,45 @@
+"""One F12 frame on the OpenCL renderer: the sequence of renderer calls that F12
+(blender/final_render.py) and the accuracy report's rungs (blender/accuracy/run.py) both run,
+written once so that a rung is timed and measured exactly as F12 renders it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..core.envmap import VirtualLights
+from ..render.settings import RenderSettings
+from .renderer import CLRenderer, RenderPasses
+
+
+def render_frame(
+    renderer: CLRenderer,
+    settings: RenderSettings,
+    lights: VirtualLights,
+    progress: Callable[[float], bool] | None = None,
+    show: Callable[[np.ndarray], None] | None = None,
+    transparent: bool = False,
+) -> RenderPasses:
+    """Every pass of one frame with the film and the mode of ``settings``, lit by the frame's
+    virtual ``lights`` (render/lighting.py ``frame_lights``).
+
+    Sampled: Depth, Normal and UV from the deterministic kernel with the first light (cheap),
+    then Combined path traced, ``show(combined)`` seeing the image after each progressive pass.
+    Virtual Lights: every pass from ``lights`` over ``settings.aa_samples`` subpixels.
+    ``progress(fraction)`` follows the Combined render; returning False stops it part-way (the
+    image holds the work done so far). ``transparent``: Film › Transparent (the World left out
+    where camera rays miss). The launch options come from ``settings`` too, so a rung of the
+    accuracy report is launched as F12 launches it."""
+    renderer.set_film(settings.film())
+    # None: the environment's choice (BTF_FIXED_LAUNCHES), as on the command line.
+    renderer.fixed_launch_split = settings.fixed_launch_split or None
+    renderer.importance_sampling = settings.btf_importance_sampling
+    renderer.transparent = transparent
+    if not settings.sampled:
+        return renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)
+    passes = renderer.render_direct(lights.prefix(1))
+    passes.combined = renderer.render_sampled(
+        settings.samples, settings.seed, progress, max_bounces=settings.max_bounces, preview=show
+    )
+    return passes
