@@ -1,45 +1,29 @@
-"""Run every benchmark and print its table (the numbers quoted in docs/accuracy.md)."""
+"""`make bench`: run every benchmark of write_reference.MAKE_BENCH, print its output, and rewrite
+its measured section of docs/accuracy.md (`<!-- bench:NAME -->`) as soon as it finishes, so a
+later failure loses nothing already measured. Sections that are not `make bench`'s are rerun by
+hand: ``python benchmarks/write_reference.py KEY`` (see that module)."""
 
 from __future__ import annotations
 
+import importlib
 import platform
 
-import bench_aa
-import bench_accuracy
-import bench_bridge
-import bench_btf_importance
-import bench_compress_svd
-import bench_decode
-import bench_envmap
-import bench_final_render
-import bench_formats
-import bench_interpolation
-import bench_mapping
-import bench_specialise
-import bench_viewport
-import bench_vr
-import bench_wiimote
+from write_reference import DOC, MAKE_BENCH, ROOT, SELF_WRITTEN, write
 
 if __name__ == "__main__":
+    modules = [importlib.import_module(name) for name in MAKE_BENCH]  # import errors stop first
     print(
         f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}"
     )
-    for module in (
-        bench_decode,
-        bench_interpolation,
-        bench_envmap,
-        bench_viewport,
-        bench_vr,
-        bench_bridge,
-        bench_final_render,
-        bench_mapping,
-        bench_aa,
-        bench_specialise,
-        bench_btf_importance,
-        bench_wiimote,
-        bench_formats,
-        bench_compress_svd,  # synthetic only; --real alu wallpaper by hand
-        bench_accuracy,  # last: it rewrites its section of docs/accuracy.md
-    ):
-        print(f"\n## {module.__name__}\n{module.__doc__.strip()}\n")
-        print(module.main())
+    doc = DOC.relative_to(ROOT)
+    for module in modules:
+        name = module.__name__
+        print(f"\n## {name}\n{module.__doc__.strip()}\n")
+        output = module.main()
+        print(output)
+        if name in SELF_WRITTEN:
+            print(f"\n({name} wrote its own section of {doc})")
+        elif write({name: output}):
+            print(f"\n(rewrote the section `bench:{name}` of {doc})")
+        else:
+            print(f"\n(no section `bench:{name}` in {doc}: printed only)")

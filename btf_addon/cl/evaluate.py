@@ -100,7 +100,7 @@ def batched_launch(btf: BTF, device) -> tuple[str, int, int | None]:
 
 
 #: Queries per work-item of the batched decodes on a CPU: 8 was the best of 1, 2, 4, 8, 16 in
-#: the A/B runs of docs/accuracy.md (wallpaper random: 2× one query per work-item).
+#: the A/B runs of docs/accuracy-history.md (wallpaper random: 2× one query per work-item).
 BATCH_CPU = 8
 #: The define that sets each batched kernel's batch (kernels/btf_eval.cl).
 BATCH_DEFINES = {"eval_mlvq": "MLVQ_BATCH", "eval_dense": "DENSE_BATCH"}

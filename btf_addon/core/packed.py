@@ -349,7 +349,7 @@ def pack(btf: BTF, importance: bool = False) -> PackedTables:
 def mlvq_fast_tables(t: dict[str, np.ndarray], out: TableWriter) -> None:
     """The MLVQ tables again, interleaved in the order the device decode reads them, so each
     step of its chain of dependent reads is one read of one cache line instead of two or three
-    (docs/accuracy.md "Decode throughput"). Exact copies: every value is the original float32,
+    (docs/accuracy.md "BTFbase decoding"). Exact copies: every value is the original float32,
     every index an integer below 2^24 (exact as float32, which ``finish`` checks).
 
     f_mlvq6: per texel (pdf6 scale, pdf6 slot) — float2; f_mlvq4: per (slot, φ)
