@@ -28,9 +28,9 @@ from helpers import studiolights_dir
 
 from btf_addon.cl.context import create_context
 from btf_addon.cl.renderer import CLRenderer
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.envmap import Environment
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.formats.imageio import read_exr
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 

@@ -92,7 +92,7 @@ def build_scene(bpy, tmp: Path):
 def f12(bpy, scene, settings) -> tuple[float, float, np.ndarray]:
     """(wall s, CPU s, (h, w, 3) image) of F12 with ``settings``, timed as `render --blend`
     times it (CPU: this process's threads, PoCL's included)."""
-    from btf_addon.core.imageio import read_exr
+    from btf_addon.core.formats.imageio import read_exr
 
     settings.to_properties(scene.btf_render)
     t0, c0 = time.perf_counter(), time.process_time()

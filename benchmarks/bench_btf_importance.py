@@ -1,4 +1,4 @@
-"""Importance sampling of measured BTFs (core/btf_importance.py) against cosine sampling.
+"""Importance sampling of measured BTFs (core/sampling/btf_importance.py) against cosine sampling.
 
 One scene per material and World: a sphere of a real BTFbase material (alu: the sharpest
 lobe we have; wallpaper) or of a GGX of roughness 0.25 tabulated on a 6° ring grid (a dense
@@ -67,13 +67,13 @@ def main() -> str:
 
     from btf_addon.cl.context import create_context
     from btf_addon.cl.renderer import CLRenderer
-    from btf_addon.core import btf_importance
-    from btf_addon.core.analytic import GGXBTF
-    from btf_addon.core.dense import tabulate
-    from btf_addon.core.envmap import Environment
+    from btf_addon.core.codecs.analytic import GGXBTF
+    from btf_addon.core.codecs.dense import tabulate
+    from btf_addon.core.codecs.mlvq import MLVQBTF
+    from btf_addon.core.formats.imageio import read_exr
     from btf_addon.core.grid import uniform_ring_grid
-    from btf_addon.core.imageio import read_exr
-    from btf_addon.core.mlvq import MLVQBTF
+    from btf_addon.core.sampling import btf_importance
+    from btf_addon.core.sampling.envmap import Environment
 
     ctx = create_context()
     worlds = {

@@ -24,8 +24,9 @@ from collections.abc import Callable
 import numpy as np
 from common import SHARED_BTFBASE, decode_rate, table
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.codecs.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.encoders import metrics
 from btf_addon.core.encoders.mlvq import (
     MLVQSettings,
@@ -33,7 +34,6 @@ from btf_addon.core.encoders.mlvq import (
     encode_mlvq,
     sample_grid,
 )
-from btf_addon.core.mlvq import MLVQBTF
 
 HEADERS = [
     "input",

@@ -30,8 +30,10 @@ import time
 import numpy as np
 from common import SHARED_BTFBASE, decode_rate, table
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.codecs.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.svd import SVDBTF
 from btf_addon.core.encoders import metrics
 from btf_addon.core.encoders.svd import (
     SVDSettings,
@@ -41,8 +43,6 @@ from btf_addon.core.encoders.svd import (
     sizes,
     truncate,
 )
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd import SVDBTF
 
 HEADERS = [
     "input",

@@ -24,7 +24,7 @@ import numpy as np
 from common import SHARED_BTFBASE, table, timed
 from helpers import random_queries
 
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
 
 N = 1_000_000
 N_SCALAR = 2_000
@@ -86,7 +86,7 @@ def materials():
     """(name, BTF): the two MLVQ materials, then wallpaper tabulated on the UBO2003 grid at
     16² texels (a dense codec: 81 × 81 × 256 RGB, 20 MB of tables, as much larger than the
     caches as wallpaper's MLVQ tables are)."""
-    from btf_addon.core.dense import tabulate
+    from btf_addon.core.codecs.dense import tabulate
     from btf_addon.core.grid import UBO2003
 
     loaded = {}

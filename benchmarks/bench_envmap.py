@@ -14,9 +14,9 @@ import numpy as np
 from common import table, timed
 from helpers import studiolights_dir
 
-from btf_addon.core.envmap import Environment, VirtualLights
-from btf_addon.core.imageio import read_exr
-from btf_addon.core.sequences import sobol_2d
+from btf_addon.core.formats.imageio import read_exr
+from btf_addon.core.sampling.envmap import Environment, VirtualLights
+from btf_addon.core.sampling.sequences import sobol_2d
 
 COUNTS = (1, 5, 25, 100, 200, 1000)
 

@@ -19,14 +19,14 @@ import numpy as np
 from common import SHARED_BTFBASE, table, timed
 from helpers import random_queries
 
-from btf_addon.core.btfbase_binary import load_binary
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.container import write_container
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.svd_build import factorise
+from btf_addon.core.formats.btfbase_binary import load_binary
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.load import load_btf
+from btf_addon.core.formats.ubo2014_writer import write_ubo2014
 from btf_addon.core.grid import UBO2003
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd_build import factorise
-from btf_addon.core.ubo2014_writer import write_ubo2014
 
 N = 200_000
 RANKS = (1, 2, 4, 8, 16, 32)
@@ -110,7 +110,7 @@ def _rates(btf, q) -> list:
 def throughput_table(alu_mlvq) -> str:
     """At MLVQ alu's own texel count (64²): decode cost does not depend on the factors'
     values, so the svd BTFs here hold random factors of the UBO2003 pair count."""
-    from btf_addon.core.svd import SVDBTF
+    from btf_addon.core.codecs.svd import SVDBTF
 
     q = random_queries(np.random.default_rng(2), N)
     rows = [["MLVQ alu (64² texels)", *_rates(alu_mlvq, q)]]
@@ -130,7 +130,7 @@ def throughput_table(alu_mlvq) -> str:
 def rank_table(alu_dense) -> str:
     """One factorisation at the largest rank; a rank-k BTF is its first k components (SVD
     truncations are nested), so every row is the optimal rank-k fit per channel."""
-    from btf_addon.core.svd import SVDBTF
+    from btf_addon.core.codecs.svd import SVDBTF
 
     data = alu_dense.data.astype(np.float64) * np.pi
     nv, nl, h, w, _ = data.shape

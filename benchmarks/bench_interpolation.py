@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 from common import table, timed
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
 from btf_addon.core.grid import UBO2003, uniform_ring_grid
-from btf_addon.core.microgeometry import woven
 
 N = 20_000
 

@@ -25,8 +25,8 @@ W, H, SAMPLES, BOUNCES, ROUNDS = 96, 72, 24, 1, 3
 
 
 def scene():
-    from btf_addon.core.envmap import Environment
-    from btf_addon.core.mlvq import MLVQBTF
+    from btf_addon.core.codecs.mlvq import MLVQBTF
+    from btf_addon.core.sampling.envmap import Environment
     from btf_addon.scene.lights import SunLight
     from btf_addon.scene.primitives import plane, uv_sphere
     from btf_addon.scene.scene import Camera, Material, Scene, look_at

@@ -17,12 +17,12 @@ import numpy as np
 from common import SHARED_BTFBASE, table
 from helpers import studiolights_dir
 
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.dense import tabulate
-from btf_addon.core.envmap import Environment
-from btf_addon.core.imageio import read_exr
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.packed import pack
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.packed import pack
+from btf_addon.core.formats.imageio import read_exr
+from btf_addon.core.formats.load import load_btf
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
 from btf_addon.gl.moderngl_device import ModernGLDevice
 from btf_addon.gl.renderer import GLSLRenderer

@@ -3,7 +3,7 @@
  * Queries arrive sanitised by the host (btf_addon/core/model.py): valid rows only. Each row of
  * `q` is u, v, theta_i, phi_i, theta_v, phi_v (degrees, theta in [0, 90]); `dirs` holds the
  * matching unit wi, wo (tangent frame) for the analytic codecs. Tables: the packed layout of
- * btf_addon/core/packed.py, shared with the GLSL back end. */
+ * btf_addon/core/codecs/packed.py, shared with the GLSL back end. */
 
 #include "btf_packed.h"
 

@@ -215,7 +215,7 @@ __kernel void render_direct(const int width, const int height, const int row0,
 /* --- Monte Carlo environment lighting with MIS ----------------------------------------------
  * The same camera rays and shading frame as render_direct, but the World is sampled
  * continuously: per sample one light direction drawn from the environment's piecewise-constant
- * distribution (btf_addon/core/envmap.py, same tables) and one direction from the BTF's sampling
+ * distribution (btf_addon/core/sampling/envmap.py, same tables) and one direction from the BTF's sampling
  * (cosine, or its GGX lobe where it has one: include/btf_sampling.h), combined
  * with the power heuristic. Unbiased for any BTF; converges to the integral the virtual lights
  * approximate. The host renders samples [first_sample, first_sample + samples) per launch and

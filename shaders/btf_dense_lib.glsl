@@ -1,5 +1,5 @@
 /* Dense (tabulated) BTFs: ring-bilinear interpolation in view and light with azimuth alignment,
- * light fade past the last ring — the same rules as btf_addon/core/grid.py and core/dense.py. */
+ * light fade past the last ring — the same rules as btf_addon/core/grid.py and core/codecs/dense.py. */
 
 /* The two theta rings around `theta` (clamped to the measured range) and the weight of r1: the
  * ring step of the dense and svd codecs' interpolation (core/grid.py). */

@@ -44,7 +44,7 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   if (codec == CODEC_LAMBERTIAN) {
     return albedo * (max(wi.z, 0.0) / 3.14159265358979);
   }
-  /* CODEC_GGX: D·G/(4 cos θo), as btf_addon/core/analytic.py */
+  /* CODEC_GGX: D·G/(4 cos θo), as btf_addon/core/codecs/analytic.py */
   vec3 wo = btf_direction(theta_v, phi_v);
   float alpha2 = ftab(F_ALPHA2);
   vec3 h = wi + wo;
@@ -57,7 +57,7 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   if (codec == CODEC_GGX) {
     return albedo * ggx;
   }
-  /* CODEC_PRINCIPLED, as PrincipledBTF in btf_addon/core/analytic.py */
+  /* CODEC_PRINCIPLED, as PrincipledBTF in btf_addon/core/codecs/analytic.py */
   float metallic = ftab(F_METALLIC), sigma = ftab(F_DIFFUSE_ROUGHNESS);
   float f0d = ftab(F_SPECULAR_F0);
   vec3 f0 = f0d + (albedo - f0d) * metallic;

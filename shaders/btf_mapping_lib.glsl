@@ -1,7 +1,7 @@
 /* The material's mapping at a fragment (btf_addon/core/mapping.py map_points and
  * mapped_evaluate; kernels/include/btf_surface.h map_point and btf_mapped do the same).
  * Needs the sampler material_blocks (MATERIAL_BLOCK_FLOATS floats per mesh, slots M_* from
- * btf_addon/core/packed.py, laid out TABLE_WIDTH floats a row as the BTF tables are) and the
+ * btf_addon/core/codecs/packed.py, laid out TABLE_WIDTH floats a row as the BTF tables are) and the
  * push constant material_block (x = this mesh's block index). */
 
 float mblock(int i)

@@ -1,12 +1,12 @@
-/* BTFbase MLVQ decoding in GLSL: the same steps as btf_addon/core/mlvq.py (the reference, which
+/* BTFbase MLVQ decoding in GLSL: the same steps as btf_addon/core/codecs/mlvq.py (the reference, which
  * documents each level) and kernels/include/btf_packed.h. Needs btf_tables_lib, btf_colour_lib. */
 
 /* Laid out as kernels/include/btf_packed.h reads it: the interleaved tables f_mlvq*
- * (btf_addon/core/packed.py mlvq_fast_tables; f_mlvq43 resolves pdf4 → pdf3), the Hermite step's weights and the colour
+ * (btf_addon/core/codecs/packed.py mlvq_fast_tables; f_mlvq43 resolves pdf4 → pdf3), the Hermite step's weights and the colour
  * curves' β weights once per decode; β and α by atan from the turned light vector (accurate at
  * grazing light, where asin in float32 is not). */
 
-/* mlvq_pdf1's Hermite step (core/mlvq.py _pdf1) as weights on p[i-1], p[i], p[i+1]. */
+/* mlvq_pdf1's Hermite step (core/codecs/mlvq.py _pdf1) as weights on p[i-1], p[i], p[i+1]. */
 vec3 mlvq_hermite_weights(int i, float w, int n_beta)
 {
   float t2 = w * w, t3 = t2 * w;

@@ -1,4 +1,4 @@
-/* The svd codec (UBO2014 DFMF), as kernels/include/btf_svd.h and btf_addon/core/svd.py: per
+/* The svd codec (UBO2014 DFMF), as kernels/include/btf_svd.h and btf_addon/core/codecs/svd.py: per
  * measured direction pair y_c = sum_k U_c[pair, k] * SV_c[texel, k], the colour transform to
  * RGB, then the dense codec's ring-bilinear blend with each sample's own azimuth. */
 
@@ -32,7 +32,7 @@ float svd_channel(int channels, int c, int pair, int texel)
 }
 
 /* ring_weights (btf_dense_lib.glsl) with every sample's own azimuth (table phi_off, ring
- * order, increasing within a ring): as svd.ring_weights in btf_addon/core/svd.py. */
+ * order, increasing within a ring): as svd.ring_weights in btf_addon/core/codecs/svd.py. */
 void svd_ring_weights(int theta_off, int offsets_off, int phi_off, int n_rings, float theta,
                       float phi, out ivec4 idx, out vec4 w)
 {

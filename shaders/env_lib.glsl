@@ -1,5 +1,5 @@
 /* Equirectangular environment lookup oriented as Blender's Environment Texture
- * (btf_addon/core/envmap.py): s = (pi - atan2(y, x)) / 2pi, t = acos(z) / pi from the top row.
+ * (btf_addon/core/sampling/envmap.py): s = (pi - atan2(y, x)) / 2pi, t = acos(z) / pi from the top row.
  * env_params: x = Z rotation (radians, the Mapping node's), y = strength. */
 
 vec3 env_lookup(vec3 d)

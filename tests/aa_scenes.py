@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.dense import DenseBTF
-from btf_addon.core.envmap import Environment
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.codecs.dense import DenseBTF
 from btf_addon.core.grid import UBO2003
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.render.pixel_filter import PixelFilter
 from btf_addon.scene.primitives import plane
 from btf_addon.scene.scene import Camera, Material, Scene, look_at

@@ -27,7 +27,7 @@ class BlenderGPUEvaluator:
     (offscreen); the BTF's packed tables stay uploaded between calls."""
 
     def __init__(self, btf: BTF):
-        packed = _ext("core.packed").pack(btf)
+        packed = _ext("core.codecs.packed").pack(btf)
         texture = _ext("blender.gpu_draw").texture
         self.shader = _ext("blender.gpu_draw").shader(_ext("gl.interface").QUERY_SHADER)
         self.int_tex = texture(packed.ints, "R32F")

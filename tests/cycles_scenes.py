@@ -9,9 +9,9 @@ import math
 import numpy as np
 from blender_helpers import forest_world, with_nodes
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr
 
 SIZE = (48, 36)
 

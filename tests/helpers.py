@@ -139,7 +139,7 @@ def make_blend(path, script: str) -> None:
 
 def read_png(path) -> np.ndarray:
     """An 8-bit, non-interlaced RGB or RGBA PNG → (H, W, channels) uint8, row 0 at the top:
-    enough to read back what Blender and ``core.imageio.write_png`` save, without Pillow."""
+    enough to read back what Blender and ``core.formats.imageio.write_png`` save, without Pillow."""
     import struct
     import zlib
 
@@ -191,7 +191,7 @@ def read_png(path) -> np.ndarray:
 def stripe_btf(tile_mm: float):
     """A dense BTF of 8 × 1 texels, half dark and half bright, the same at every angle: one
     stripe period per tile along u, and a tile of ``tile_mm`` square."""
-    from btf_addon.core.dense import DenseBTF
+    from btf_addon.core.codecs.dense import DenseBTF
     from btf_addon.core.grid import RingGrid
 
     image = np.zeros((1, 8, 3), dtype=np.float32)

@@ -1,5 +1,5 @@
 """An independent scalar BTFbase decoder for tests: plain Python loops over one query at a time,
-written from the format facts in DESIGN.md (not from btf_addon.core.mlvq), reading the text
+written from the format facts in DESIGN.md (not from btf_addon.core.codecs.mlvq), reading the text
 tables with numpy.loadtxt."""
 
 from __future__ import annotations

@@ -6,11 +6,11 @@ import dataclasses
 
 import numpy as np
 
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.svd import SVDBTF
+from btf_addon.core.codecs.svd_build import factorise
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.svd import SVDBTF
-from btf_addon.core.svd_build import factorise
 
 
 def svd_cases() -> dict[str, SVDBTF]:

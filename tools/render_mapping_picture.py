@@ -23,11 +23,11 @@ from helpers import studiolights_dir  # noqa: E402
 
 from btf_addon.cl.context import create_context  # noqa: E402
 from btf_addon.cl.renderer import CLRenderer  # noqa: E402
-from btf_addon.core.dense import tabulate  # noqa: E402
-from btf_addon.core.envmap import Environment  # noqa: E402
+from btf_addon.core.codecs.dense import tabulate  # noqa: E402
+from btf_addon.core.codecs.microgeometry import woven  # noqa: E402
+from btf_addon.core.formats.imageio import read_exr, srgb8_from_linear, write_png  # noqa: E402
 from btf_addon.core.grid import uniform_ring_grid  # noqa: E402
-from btf_addon.core.imageio import read_exr, srgb8_from_linear, write_png  # noqa: E402
-from btf_addon.core.microgeometry import woven  # noqa: E402
+from btf_addon.core.sampling.envmap import Environment  # noqa: E402
 from btf_addon.scene.primitives import cube  # noqa: E402
 from btf_addon.scene.scene import Camera, Material, Scene, look_at  # noqa: E402
 

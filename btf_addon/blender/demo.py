@@ -7,9 +7,9 @@ from pathlib import Path
 
 import bpy
 
-from ..core.container import write_container
-from ..core.dense import tabulate
-from ..core.presets import make_preset
+from ..core.codecs.dense import tabulate
+from ..core.codecs.presets import make_preset
+from ..core.formats.container import write_container
 from . import compat
 from .addon import ENGINE_ID
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from ..core.errors import BTFMaterialsError
 from ..gl import host_context
+from ..gl.converge import converge
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..gl.moderngl_device import ModernGLDevice
 from ..render.lighting import frame_lights
@@ -52,18 +53,22 @@ def _render(engine, exported, settings, w, h, transparent):
         return None
     try:
         view.set_lights(frame_lights(settings, exported, cam.world_from_camera[:3, 2]), BATCH)
-        state = view.state
-        engine.update_stats("", f"BTF | {len(exported.meshes)} meshes, {state.total} lights")
-        view.jitter = settings.film()  # each pass at the film filter's next subpixel offset
-        view.jitter_world = not transparent  # a transparent film keeps the World out of the sum
-        drawer.restart(view, cam.clip_from_world(w / h), cam.shader_vector())
-        while drawer.add_batch(view):
-            engine.update_progress(state.done / state.total)
-            if engine.test_break():
-                break
-        with drawer.device.bound(view.output):
-            drawer.draw_resolved(view, transparent_background=transparent)
-        return view.read().reshape(h, w, 4)  # row 0 at the bottom, as Blender's results
+        engine.update_stats("", f"BTF | {len(exported.meshes)} meshes, {view.state.total} lights")
+
+        def progress(fraction: float) -> bool:
+            engine.update_progress(fraction)
+            return not engine.test_break()  # Esc: the lights drawn so far are the result
+
+        drawn = converge(
+            drawer,
+            view,
+            cam.clip_from_world(w / h),
+            cam.shader_vector(),
+            film=settings.film(),
+            transparent=transparent,
+            progress=progress,
+        )
+        return drawn.image  # row 0 at the bottom, as Blender's results
     finally:
         view.release()
         drawer.release()

@@ -59,7 +59,7 @@ class BlenderGPUDevice:
 
     @property
     def max_texture_size(self) -> int:
-        """Checked before a BTF's tables are uploaded (core/gpu_fit.py)."""
+        """Checked before a BTF's tables are uploaded (core/codecs/gpu_fit.py)."""
         return gpu.capabilities.max_texture_size_get()
 
     def program(self, interface: ShaderInterface) -> gpu.types.GPUShader:

@@ -28,7 +28,7 @@ import bpy
 from bpy.app.handlers import persistent
 from bpy.types import Operator
 
-from ..core.analytic import LambertianBTF
+from ..core.codecs.analytic import LambertianBTF
 from ..core.errors import BTFError
 from .export.materials import load_cached
 
@@ -169,7 +169,7 @@ def with_error_colour(exported, missing: list[MissingSource]):
 BTFBASE_MARKER = "all_materialInfo.txt"
 #: Files that are a BTF source on their own (not a table of a folder).
 SINGLE_FILE_SUFFIXES = (".btfm",)
-#: An image inside an image-set folder stands for the folder (core/image_sets.py).
+#: An image inside an image-set folder stands for the folder (core/formats/image_sets.py).
 IMAGE_SET_SUFFIXES = (".jpg", ".jpeg", ".hdr")
 
 

@@ -1,6 +1,7 @@
 """The one place that turns Blender's data into the plain values the render drivers read
 (Cycles' ``blender/sync.cpp`` habit): the frame size, the render settings with the scene's film
-filter, the VR session's and the XTAL bridge's settings.
+filter, the VR session's and the XTAL bridge's settings (the headset's part of both from one
+reader, blender/vr/headset_settings.py).
 
 Every entry point reads them here — F12, the viewport, Blender's VR session, the XTAL bridge
 operator and its CLI, stereo captures, the accuracy report, ``render`` — so one scene gives
@@ -32,17 +33,25 @@ def render_settings(scene) -> RenderSettings:
     return RenderSettings.from_scene(scene)
 
 
+def vr_settings(scene):
+    """Blender's VR session's settings (``scene.btf_vr``) as its draw callback reads them."""
+    from .vr.headset_settings import headset_values
+    from .vr.preview import VRSettings
+
+    props = scene.btf_vr
+    return VRSettings(**headset_values(props), show_world=props.show_world)
+
+
 def bridge_settings(scene):
-    """The XTAL bridge's own settings (``scene.btf_bridge``) as the bridge reads them."""
+    """The XTAL bridge's settings (``scene.btf_bridge``) as the bridge reads them: the
+    headset's (``headset_values``, as the VR session's) and the bridge's own."""
     from ..xr.bridge import BridgeSettings
+    from .vr.headset_settings import headset_values
 
     props = scene.btf_bridge
     return BridgeSettings(
-        lights_total=props.lights_total,
-        exposure=props.exposure,
+        **headset_values(props),
         resolution_scale=props.resolution_scale,
-        budget_s=props.frame_budget_ms / 1e3 if props.frame_budget_ms > 0 else None,
         profile=props.profile,
-        show_hud=props.show_hud,
         placement="camera",  # the head starts at the scene camera, as in Blender's VR session
     )

@@ -22,8 +22,9 @@ import bpy
 from bpy.app.handlers import persistent
 from bpy.props import IntProperty
 
-#: The settings version this code writes. 0: files saved before versioning (issue 14).
-SETTINGS_VERSION = 1
+#: The settings version this code writes. 0: files saved before versioning (issue 14); 2: the
+#: VR session and the XTAL bridge share their settings' defaults (vr/headset_settings.py).
+SETTINGS_VERSION = 2
 
 
 class Upgrade(NamedTuple):
@@ -43,6 +44,9 @@ UPGRADES = (
     Upgrade(1, "material", "btf", "texel_filter", "NEAREST"),
     Upgrade(1, "material", "btf", "mapping", "UV"),
     Upgrade(1, "material", "btf", "use_real_world_size", False),
+    # Now 0, "the headset's display period", as the bridge's; the VR session holds 11 ms for it
+    # all the same (it is never told the period), so this keeps what the panel showed.
+    Upgrade(2, "scene", "btf_vr", "frame_budget_ms", 11.0),
 )
 
 

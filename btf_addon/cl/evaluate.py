@@ -4,7 +4,7 @@
 (core/model.py ``DelegatingBTF``): the base class still sanitises and chunks the queries on the
 host (NaN/Inf, below-horizon and zero-length rows never reach the device); ``KernelEvaluator``
 evaluates the valid rows from the packed table layout that the GLSL back end uses too
-(btf_addon/core/packed.py). MLVQ and dense materials go through ``eval_mlvq`` and
+(btf_addon/core/codecs/packed.py). MLVQ and dense materials go through ``eval_mlvq`` and
 ``eval_dense``, which on a CPU device decode a batch of queries per work-item, issuing the
 batch's reads of each step before using any, so that their cache misses overlap
 (docs/accuracy.md "BTFbase decoding").
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.codecs.packed import pack
 from ..core.model import BTF, DelegatingBTF, Queries
-from ..core.packed import pack
 from .context import CLContext
 from .programs import build_program
 

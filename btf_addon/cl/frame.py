@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..core.envmap import VirtualLights
+from ..core.sampling.envmap import VirtualLights
 from ..render.settings import RenderSettings
 from .renderer import CLRenderer, RenderPasses
 

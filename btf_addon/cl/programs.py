@@ -1,6 +1,6 @@
 """Build OpenCL programs from kernels/*.cl, cached in memory and on disk.
 
-Every build gets the packed table layout (core/packed.py ``defines()``: header slots, codec
+Every build gets the packed table layout (core/codecs/packed.py ``defines()``: header slots, codec
 ids) as ``-D`` options beside the caller's variant defines. Key: (platform, device, driver
 version, the full define set, hash of the source as compiled, i.e. the .cl with its headers
 expanded). The second build of the same key in a process is free; in a new process the device
@@ -20,7 +20,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from ..core import packed
+from ..core.codecs import packed
 from ..core.errors import BuildError
 from ..core.fileio import atomic_write
 

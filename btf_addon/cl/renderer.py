@@ -25,10 +25,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.btf_importance import sampled_by_table
-from ..core.envmap import VirtualLights
-from ..core.gpu_fit import fit_for_gpu
-from ..core.packed import pack
+from ..core.codecs.gpu_fit import fit_for_gpu
+from ..core.codecs.packed import pack
+from ..core.sampling.btf_importance import sampled_by_table
+from ..core.sampling.envmap import VirtualLights
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
@@ -90,7 +90,7 @@ class CLRenderer:
         #: What the caller should tell the user: materials reduced to fit the device.
         self.notes: list[str] = []
         self._fitted: list | None = None  # _device_btfs
-        #: The Sampled mode samples measured BTFs by their tables (core/btf_importance.py,
+        #: The Sampled mode samples measured BTFs by their tables (core/sampling/btf_importance.py,
         #: built on the first Sampled render); False: cosine sampling, as before them.
         self.importance_sampling = True
         self._packed_importance = False
@@ -111,7 +111,7 @@ class CLRenderer:
         self.env = self._buffer(rgba.ravel(), np.float32)
         self.scene_lights = self._buffer(pack_lights(scene.lights).ravel(), np.float32)
         self.scene_light_count = np.int32(len(scene.lights))
-        # The environment's sampling tables, exactly those of core/envmap.py.
+        # The environment's sampling tables, exactly those of core/sampling/envmap.py.
         self.env_tables = [
             self._buffer(a.ravel(), np.float32)
             for a in (env.row_cdf, env.col_cdf, env.row_pdf, env.col_pdf)
@@ -210,7 +210,8 @@ class CLRenderer:
             self._upload_blocks(texel_filter)
 
     def _upload_blocks(self, texel_filter: str | None = None) -> None:
-        """One parameter block per mesh (core/packed.py MATERIAL_BLOCK: mapping, texel filter,
+        """One parameter block per mesh (core/codecs/packed.py MATERIAL_BLOCK: mapping, texel
+        filter,
         exposure), with every material's texel filter replaced unless ``texel_filter`` is None."""
         scene = self.scene
         if texel_filter is not None:

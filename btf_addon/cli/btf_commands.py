@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 
 from ..core import memory
-from ..core.codecs import bytes_on_disk, load_btf
-from ..core.container import SUFFIX, write_container
-from ..core.dense import tabulate
+from ..core.codecs.dense import tabulate
+from ..core.codecs.presets import PRESETS, make_preset, preset_parameters
 from ..core.errors import BTFError
 from ..core.fileio import atomic_write
+from ..core.formats.container import SUFFIX, write_container
+from ..core.formats.imageio import srgb8_from_linear, write_exr, write_png
+from ..core.formats.load import bytes_on_disk, load_btf
 from ..core.grid import UBO2003, uniform_ring_grid
-from ..core.imageio import srgb8_from_linear, write_exr, write_png
-from ..core.presets import PRESETS, make_preset, preset_parameters
 
 
 def add_device_argument(parser) -> None:
@@ -381,9 +381,9 @@ def _with_suffix(path: Path) -> Path:
 
 
 def cmd_convert(args) -> int:
-    from ..core.image_sets import is_image_set, load_image_set
-    from ..core.svd_build import factorise
-    from ..core.ubo2014_writer import write_ubo2014
+    from ..core.codecs.svd_build import factorise
+    from ..core.formats.image_sets import is_image_set, load_image_set
+    from ..core.formats.ubo2014_writer import write_ubo2014
 
     memory.require(memory.btf_load(args.src))
     src = Path(args.src)

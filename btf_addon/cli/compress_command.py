@@ -20,13 +20,13 @@ from pathlib import Path
 
 from ..cl.encoder_assign import opencl_assign_or_none
 from ..core import memory
-from ..core.codecs import load_btf
-from ..core.container import SUFFIX, write_container
 from ..core.encoders import metrics
 from ..core.encoders.mlvq import MLVQSettings, encode_mlvq
 from ..core.encoders.svd import COLOUR_SPACES, SVDSettings, encode_svd, memory_bound
 from ..core.encoders.svd import sizes as svd_sizes
 from ..core.errors import BTFError
+from ..core.formats.container import SUFFIX, write_container
+from ..core.formats.load import load_btf
 from .accuracy_command import ProgressBar
 
 #: Bytes per texel at the encoder's peak: the grid samples (16 × 7 × 11 × 11 × 3 float32 at

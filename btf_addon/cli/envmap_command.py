@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 
 from ..core import memory
-from ..core.envmap import Environment
 from ..core.errors import BTFError
 from ..core.fileio import atomic_write
-from ..core.imageio import exr_size, read_exr
+from ..core.formats.imageio import exr_size, read_exr
+from ..core.sampling.envmap import Environment
 
 
 def add_parser(sub) -> None:

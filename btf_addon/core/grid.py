@@ -10,7 +10,7 @@ direction (also through the pole, whose single sample's weight tends to 1 there)
 
 Beyond the last ring nothing was measured: the query is clamped onto the last ring (constant
 in θ). For light directions the dense codec additionally fades by cos θ / cos θ_last, which
-keeps "value = BRDF × cos θi" continuous and reaching 0 at the horizon (core/dense.py).
+keeps "value = BRDF × cos θi" continuous and reaching 0 at the horizon (core/codecs/dense.py).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Where on a BTF tile a surface point looks: UV or Box (triplanar) mapping, real-world size and
 bilinear texel filtering — the numpy reference of kernels/include/btf_surface.h (``map_point``,
 ``btf_mapped``) and shaders/btf_mapping_lib.glsl, which read the same parameter block
-(core/packed.py ``MATERIAL_BLOCK``).
+(core/codecs/packed.py ``MATERIAL_BLOCK``).
 
 Conventions (all three back ends):
 - Texture coordinates = A·s + c (``uv_matrix`` A, ``uv_offset`` c), s the mesh UV (UV mapping)
@@ -24,12 +24,69 @@ Conventions (all three back ends):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .model import BTF
-from .packed import BLOCK_SLOT, FILTER_IDS, MAPPING_IDS, material_block
+
+#: The per-material parameter block, one per (mesh, material) draw: how a surface point finds
+#: its texture coordinates (``Placement.block`` below computes every value;
+#: kernels/include/btf_surface.h and shaders/btf_mapping_lib.glsl read them as ``M_<NAME>``,
+#: defines from codecs/packed.py ``defines()``). Values, in order:
+#: material: index of the material's packed tables; mapping: MAPPING_UV | MAPPING_BOX;
+#: texel_filter: FILTER_LINEAR | FILTER_NEAREST; exposure: the multiplier 2^stops;
+#: uv_matrix: 2×2 row-major A and uv_offset c: texture coordinates = A·s + c, where s is the
+#: mesh UV (UV mapping) or a box projection's 2D coordinates (Box mapping);
+#: box_blend: blend width of the box projection's weights (0 = one projection per point);
+#: box_from_world: 3×4 row-major affine map from world space to the box's frame (orthonormal
+#: rotation × a uniform scale, so normals map by its 3×3 part then normalise).
+MATERIAL_BLOCK: tuple[tuple[str, int], ...] = (
+    ("material", 1),
+    ("mapping", 1),
+    ("texel_filter", 1),
+    ("exposure", 1),
+    ("uv_matrix", 4),
+    ("uv_offset", 2),
+    ("box_blend", 1),
+    ("box_from_world", 12),
+)
+MATERIAL_BLOCK_FLOATS = 32  # floats reserved per block (a GLSL texture row, an OpenCL stride)
+#: Enumerations of the block, numbered as Blender's EnumProperty items (blender/properties.py
+#: ``mapping``, ``texel_filter``): one meaning per number on both sides. They reach device code
+#: as defines (MAPPING_*, FILTER_*), so device code never spells a number.
+MAPPING_IDS = {"UV": 0, "BOX": 1}
+FILTER_IDS = {"LINEAR": 0, "NEAREST": 1}
+
+
+def _block_slots() -> dict[str, tuple[int, int]]:
+    slots, cursor = {}, 0
+    for name, size in MATERIAL_BLOCK:
+        slots[name] = (cursor, size)
+        cursor += size
+    return slots
+
+
+BLOCK_SLOT = _block_slots()  # name → (first float, size)
+assert sum(size for _, size in MATERIAL_BLOCK) <= MATERIAL_BLOCK_FLOATS
+
+
+def material_block(**values: float | Sequence[float]) -> np.ndarray:
+    """One parameter block, (MATERIAL_BLOCK_FLOATS,) float32, from values by slot name (every
+    slot must be given: a forgotten one would silently read 0 on the device)."""
+    missing = set(BLOCK_SLOT) - set(values)
+    if missing:
+        raise KeyError(f"material block slots missing: {sorted(missing)}")
+    out = np.zeros(MATERIAL_BLOCK_FLOATS, dtype=np.float32)
+    for name, value in values.items():
+        first, size = BLOCK_SLOT[name]  # KeyError for an unknown name
+        flat = np.asarray(value, dtype=np.float32).ravel()
+        if flat.size != size:
+            raise ValueError(f"block slot {name!r} holds {size} floats, got {flat.size}")
+        out[first : first + size] = flat
+    return out
+
 
 #: Mapping and filter identifiers as Blender's enum items name them (blender/properties.py).
 MAPPINGS = tuple(MAPPING_IDS)
@@ -196,7 +253,7 @@ class Placement:
         units_per_uv: float | None = None,
         metres_per_unit: float = 1.0,
     ) -> np.ndarray:
-        """The parameter block (core/packed.py) for one mesh drawn with this placement."""
+        """The parameter block (core/codecs/packed.py) for one mesh drawn with this placement."""
         if self.box_space == "OBJECT":
             box = rigid_frame(world_from_object)
         else:

@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from ..core.envmap import VirtualLights
-from ..core.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
-from ..core.packed import layout_stream, pack
+from ..core.codecs.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
+from ..core.codecs.packed import layout_stream, pack
+from ..core.sampling.envmap import VirtualLights
 from ..render.pixel_filter import PixelFilter, subpixel_offset
 from ..render.progressive import ProgressiveState
 from ..scene.lights import pack_lights
@@ -192,7 +192,7 @@ class ProgressiveDrawer:
             self.no_lights = device.texture(np.zeros((1, 2, 4), dtype=np.float32))
         # Blender's lights: five RGBA texels each (scene/lights.py), drawn without shadows.
         self.scene_lights_tex = device.texture(pack_lights(scene.lights).reshape(1, -1, 4))
-        # Per mesh its material's parameter block (core/packed.py MATERIAL_BLOCK): mapping,
+        # Per mesh its material's parameter block (core/codecs/packed.py MATERIAL_BLOCK): mapping,
         # texel filter, exposure (shaders/btf_mapping_lib.glsl), laid out TABLE_WIDTH floats
         # a row as the BTF tables are, so any number of instances fits a texture's height.
         self.blocks_tex = device.texture(layout_stream(scene.material_blocks().ravel()))
@@ -330,10 +330,10 @@ class ProgressiveDrawer:
             )
             device.set_state(DEFAULT_STATE)
 
-    def resolve(self, view: ViewAccumulation) -> None:
-        """Draw ``view``'s image so far into its output target."""
+    def resolve(self, view: ViewAccumulation, transparent_background: bool = False) -> None:
+        """Draw ``view``'s image so far into its output target (``draw_resolved``)."""
         with self.device.bound(view.output):
-            self.draw_resolved(view)
+            self.draw_resolved(view, transparent_background=transparent_background)
 
     def draw_resolved(
         self,

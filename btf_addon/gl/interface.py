@@ -4,7 +4,7 @@ Bodies live in shaders/*.glsl without declarations (Blender's create-info rule);
 here declares every resource once. For Blender, the description becomes create-info calls; for
 moderngl it becomes ``#version 330`` declarations prepended to the same bodies.
 
-Every shader is built with the packed table layout's defines (core/packed.py ``defines()``:
+Every shader is built with the packed table layout's defines (core/codecs/packed.py ``defines()``:
 TABLE_WIDTH, header slots H_*/F_*, codec ids CODEC_*) beside its own: as create-info
 ``define`` calls for Blender and as ``#define`` lines after ``#version 330 core`` for moderngl.
 shaders/btf_tables_lib.glsl writes none of those numbers itself.
@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..core import packed
+from ..core.codecs import packed
 from ..core.errors import BuildError
 
 SHADERS_DIR = Path(__file__).resolve().parents[2] / "shaders"

@@ -72,7 +72,7 @@ class ModernGLDevice:
         self.owns_context = ctx is None
         self.ctx = ctx if ctx is not None else create_gl_context()
         self._programs: dict[str, _Program] = {}
-        # Checked before a BTF's tables are uploaded (core/gpu_fit.py).
+        # Checked before a BTF's tables are uploaded (core/codecs/gpu_fit.py).
         self.max_texture_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
 
     def _activate(self) -> None:

@@ -11,8 +11,8 @@ import sys
 
 import numpy as np
 
+from ..core.codecs.packed import pack
 from ..core.model import BTF, DelegatingBTF, Queries
-from ..core.packed import pack
 from . import host_context
 from .interface import QUERY_SHADER, ShaderCompileError
 

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.envmap import VirtualLights
+from ..core.sampling.envmap import VirtualLights
 from ..render.progressive import ProgressiveState
 from ..scene.scene import Scene
+from .converge import converge, rgb_top_first
 from .drawer import ProgressiveDrawer, ViewAccumulation, check_size
 from .moderngl_device import ModernGLDevice
 
@@ -35,12 +36,14 @@ class GLSLRenderer:
     def set_lights(self, lights: VirtualLights, per_pass: int) -> None:
         self.view.set_lights(lights, per_pass)
 
+    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The scene camera's clip_from_world and shader vector at this size."""
+        cam = self.scene.camera
+        return cam.clip_from_world(self.width / self.height), cam.shader_vector()
+
     def restart(self) -> None:
         """Clear the accumulation and draw the depth pre-pass and the World."""
-        cam = self.scene.camera
-        self.drawer.restart(
-            self.view, cam.clip_from_world(self.width / self.height), cam.shader_vector()
-        )
+        self.drawer.restart(self.view, *self._pose())
 
     def render_pass(self) -> int:
         """Add the next batch of lights; returns how many were added (0 once converged)."""
@@ -51,14 +54,14 @@ class GLSLRenderer:
     def resolve(self) -> np.ndarray:
         """(height, width, 3) float32 linear image, row 0 at the top."""
         self.drawer.resolve(self.view)
-        return np.ascontiguousarray(self.view.read()[::-1, :, :3])  # OpenGL's row 0: bottom
+        return rgb_top_first(self.view.read())
 
     def render(self, lights: VirtualLights, per_pass: int | None = None) -> np.ndarray:
+        """``lights`` to convergence over the World, ``per_pass`` a batch (None: all in one),
+        each batch jittered by ``view.jitter`` (None: pixel centres); as ``resolve``."""
         self.set_lights(lights, per_pass or len(lights.pdf))
-        self.restart()
-        while self.render_pass():
-            pass
-        return self.resolve()
+        drawn = converge(self.drawer, self.view, *self._pose(), film=self.view.jitter)
+        return rgb_top_first(drawn.image)
 
     def release(self) -> None:
         self.view.release()

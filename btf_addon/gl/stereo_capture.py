@@ -28,11 +28,12 @@ import numpy as np
 
 from ..core.errors import BTFError
 from ..core.fileio import atomic_write
-from ..core.imageio import srgb8_from_linear, write_exr, write_png
+from ..core.formats.imageio import srgb8_from_linear, write_exr, write_png
 from ..render.headsets import Eye, HeadsetProfile, stereo_eyes
 from ..render.lighting import frame_lights
 from ..render.settings import RenderSettings
 from ..scene.scene import Scene
+from .converge import converge, rgb_top_first
 from .drawer import MAX_SIZE, ProgressiveDrawer, ViewAccumulation
 
 LAYOUTS = ("side-by-side", "per-eye")
@@ -214,13 +215,8 @@ def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> Ste
         for eye in eyes:  # one eye's targets at a time: 3 RGBA32F images of the eye's size
             view = ViewAccumulation(device, eye.width, eye.height)
             view.set_lights(lights, batch_size(settings, len(lights.pdf)))
-            view.jitter = film  # each batch at the film filter's next subpixel offset
-            drawer.restart(view, eye.clip_from_world, [*eye.position, 1.0])
-            while drawer.add_batch(view):
-                pass
-            drawer.resolve(view)
-            # The drawer's row 0 is the bottom (OpenGL); files start at the top.
-            images[eye.name] = np.ascontiguousarray(view.read()[::-1, :, :3])
+            drawn = converge(drawer, view, eye.clip_from_world, [*eye.position, 1.0], film=film)
+            images[eye.name] = rgb_top_first(drawn.image)  # files start at the top
             view.release()
             view = None
     finally:

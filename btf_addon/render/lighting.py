@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.envmap import VirtualLights
+from ..core.sampling.envmap import VirtualLights
 from ..scene.scene import Scene
 from .settings import Lighting, RenderSettings
 

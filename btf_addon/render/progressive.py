@@ -2,7 +2,8 @@
 
 The viewport adds K lights per redraw until all N are in; any change to what is drawn (view,
 objects, materials, World, settings) restarts from zero. Because every prefix of the light list
-is a stratified estimate (core/envmap.py), the image after k lights is already a fair result:
+is a stratified estimate (core/sampling/envmap.py), the image after k lights is already a fair
+result:
 the resolve divides the accumulated sum by k. Each view holds its own state (gl/drawer.py
 ``ViewAccumulation``): two eyes over one scene progress independently.
 """

@@ -50,7 +50,8 @@ class RenderSettings:
     # between runs on one device, for farms that diff frames (render/launch.py).
     fixed_launch_split: bool = False
     # The Sampled mode continues paths from measured BTFs by their sampling tables
-    # (core/btf_importance.py) instead of cosine sampling alone: the same image in the limit,
+    # (core/sampling/btf_importance.py) instead of cosine sampling alone: the same image in the
+    # limit,
     # less noise on sharp lobes, ≈ 10 % more time per sample (docs/accuracy.md).
     btf_importance_sampling: bool = True
     pixel_filter: str = "BLACKMAN_HARRIS"  # scene.cycles.pixel_filter_type where Cycles is on

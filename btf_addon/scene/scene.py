@@ -10,10 +10,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.envmap import Environment
-from ..core.mapping import DEFAULT_TEXEL_FILTER, Placement, uv_units_per_uv
+from ..core.mapping import DEFAULT_TEXEL_FILTER, MATERIAL_BLOCK_FLOATS, Placement, uv_units_per_uv
 from ..core.model import BTF
-from ..core.packed import MATERIAL_BLOCK_FLOATS
+from ..core.sampling.envmap import Environment
 from .lights import Light
 
 
@@ -63,7 +62,7 @@ class Material:
         )
 
     def block(self, index: int, mesh: Mesh, metres_per_unit: float = 1.0) -> np.ndarray:
-        """The parameter block (core/packed.py MATERIAL_BLOCK) for ``mesh`` drawn with this
+        """The parameter block (core/codecs/packed.py MATERIAL_BLOCK) for ``mesh`` drawn with this
         material, which is ``index`` in the scene: (MATERIAL_BLOCK_FLOATS,) float32."""
         units = mesh.units_per_uv() if self.mapping == "UV" and self.real_world else None
         return self.placement().block(index, mesh.world_from_object, units, metres_per_unit)

@@ -6,13 +6,14 @@ context (OpenGL contexts are current per thread). ``set_scene``, ``request_stop`
 and ``pop_edits`` may be called from any other thread (Blender's main thread): they only
 touch values under a lock, taken by the frame loop at its next frame.
 
-Per eye (``gl/eye.EyeAccumulation``, shared with Blender's VR session callback: one
+Per eye a ``gl/eye.HeadsetEye``, the same object Blender's VR session callback keeps (one
 ``ViewAccumulation`` over the one ``ProgressiveDrawer``): the lights of
-``render/lighting.frame_lights``, K of them per frame from ``render/frame_budget.FrameBudget``
-(budget: the runtime's predicted display period unless set), a restart when the eye's matrices
-moved (``view_moved``), the resolve drawn into the acquired swapchain image (sizes equal: the
-resolve fetches at the fragment's own coordinates) with GL_FRAMEBUFFER_SRGB on for an sRGB
-swapchain (our output is linear), and the HUD quad fixed to the head.
+``render/lighting.frame_lights``, K of them per frame fixed or from its ``FrameBudget``
+(budget: the runtime's predicted display period unless set, the profile's refresh before the
+runtime says), a restart when the eye's matrices moved (``view_moved``), the resolve drawn into
+the acquired swapchain image (sizes equal: the resolve fetches at the fragment's own
+coordinates) with GL_FRAMEBUFFER_SRGB on for an sRGB swapchain (our output is linear), and the
+HUD quad fixed to the head.
 
 Where the scene is (``BridgeSettings.placement``):
 - ``"space"`` (default): the runtime's reference space (STAGE, else LOCAL) IS the scene's world:
@@ -39,13 +40,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
-from ..gl.eye import EyeAccumulation
-from ..gl.hud import HudDrawer
-from ..render.frame_budget import FrameBudget
+from ..gl.drawer import ProgressiveDrawer
+from ..gl.eye import HeadsetEye, HeadsetSettings
 from ..render.headsets import profile as headset_profile
 from ..render.headsets import projection_from_fov
-from ..render.hud import hud_quad, raster_text, status_lines
 from ..render.settings import RenderSettings
 from ..scene.scene import Scene
 from .controls import ControlMap
@@ -75,7 +73,6 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 EYES = ("left", "right")
-HUD_REFRESH_S = 0.25  # re-rasterise the HUD's text 4× a second at most
 IDLE_WAIT_S = 0.005  # between polls while the session is not running yet
 PLACEMENTS = ("space", "camera")
 START_TIMEOUT_S = 30.0  # run_bridge: no frame by then → the session never started
@@ -87,22 +84,18 @@ ZUP_FROM_YUP = np.array(
 
 
 @dataclass(frozen=True)
-class BridgeSettings:
-    """``lights_total``: N virtual lights per eye; ``exposure``: stops; ``resolution_scale``:
-    times the runtime's recommended eye size (clamped to its maximum); ``budget_s``: frame
-    time to hold (None: the runtime's predicted display period); ``profile``: the headset
-    profile (render/headsets.py) used for what the runtime does not report; ``capture_dir``:
-    write each submitted eye image (xr/capture.py); ``converge``: hold the first located
-    pose (submitted as drawn) for the whole run, so the lights accumulate until all are in and
-    the image then stays converged; ``placement``: where the runtime's space lies in the scene
+class BridgeSettings(HeadsetSettings):
+    """The eyes' settings of Blender's VR session too (``HeadsetSettings``: lights, frame
+    budget, exposure, HUD), and the bridge's own: ``resolution_scale``: times the runtime's
+    recommended eye size (clamped to its maximum); ``profile``: the headset profile
+    (render/headsets.py) used for what the runtime does not report; ``capture_dir``: write
+    each submitted eye image (xr/capture.py); ``converge``: hold the first located pose
+    (submitted as drawn) for the whole run, so the lights accumulate until all are in and the
+    image then stays converged; ``placement``: where the runtime's space lies in the scene
     (module docstring: "space", the default, or "camera")."""
 
-    lights_total: int = 200
-    exposure: float = 0.0
     resolution_scale: float = 1.0
-    budget_s: float | None = None
     profile: str = "generic-2016x2240"
-    show_hud: bool = True
     capture_dir: Path | None = None
     converge: bool = False
     placement: str = "space"  # "space" or "camera" (module docstring)
@@ -124,22 +117,6 @@ class BridgeStatus:
     values_from: str = "runtime"
     message: str = ""
     frames: int = 0
-
-
-@dataclass
-class _Eye:
-    budget: FrameBudget
-    image: EyeAccumulation = field(default_factory=EyeAccumulation)
-    drawn: int = 0
-    held: object = None  # the LocatedView held while converging
-    hud_lines: list[str] = field(default_factory=list)
-    hud_image: np.ndarray | None = None
-    hud_time: float = -1.0
-    hud: HudDrawer | None = None  # one per eye: the eyes' texts differ (their own times)
-
-    @property
-    def view(self) -> ViewAccumulation | None:
-        return self.image.view
 
 
 def world_from_space(world_from_camera: np.ndarray, head_in_space: np.ndarray) -> np.ndarray:
@@ -175,6 +152,8 @@ class XRBridge:
         self.profile = headset_profile(settings.profile)  # ValueError for an unknown name
         if settings.lights_total < 1:
             raise ValueError(f"lights_total must be >= 1, got {settings.lights_total}")
+        if settings.lights_per_frame is not None and settings.lights_per_frame < 1:
+            raise ValueError(f"lights_per_frame must be >= 1, got {settings.lights_per_frame}")
         if settings.placement not in PLACEMENTS:
             raise ValueError(f"placement must be one of {PLACEMENTS}, got {settings.placement!r}")
         self.settings = settings
@@ -190,7 +169,8 @@ class XRBridge:
         self.control_map = controls
         self._status = BridgeStatus(values_from="runtime")
         self.gl = self.session = self.device = self.drawer = self.controls = None
-        self.eyes: list[_Eye] = []
+        self.eyes: list[HeadsetEye] = []
+        self.held: list = []  # per eye, the LocatedView held while converging
         self.world_from_space: np.ndarray | None = None
         self.frames = 0  # submitted frames
         self.ended = False
@@ -237,7 +217,8 @@ class XRBridge:
             self.device = ModernGLDevice(self.gl.ctx)
             self.drawer = ProgressiveDrawer(self.device, self._scene)
             budget = self.settings.budget_s or self.profile.frame_budget_s
-            self.eyes = [_Eye(FrameBudget(budget, clock=self.clock)) for _ in EYES]
+            self.eyes = [HeadsetEye(self.device, budget, self.clock) for _ in EYES]
+            self.held = [None] * len(EYES)
             self._start_controls()
         except BaseException:
             self.close()
@@ -317,18 +298,17 @@ class XRBridge:
         if settings.converge:
             # The first located pose for the whole run: the lights accumulate until all N are
             # in, and every later frame is that converged image (what a check compares).
-            if eye.held is None:
-                eye.held = located
-            view_used = eye.held
+            if self.held[index] is None:
+                self.held[index] = located
+            view_used = self.held[index]
         else:
             view_used = located
-        if settings.budget_s is None and self.session.period_s:
-            eye.budget.budget_s = self.session.period_s
-        k = eye.budget.frame(eye.drawn)
-        eye.drawn = 0
+        k = eye.lights_this_frame(
+            settings.lights_per_frame, settings.budget_s or self.session.period_s
+        )
 
         view_from_world, clip_from_view = self.matrices(view_used)
-        eye.drawn, _ = eye.image.advance(
+        eye.advance(
             self.drawer,
             (chain.width, chain.height),
             self.render_settings,
@@ -342,7 +322,7 @@ class XRBridge:
         self._resolve_into(eye, index, view, clip_from_view)
         return view_used
 
-    def _resolve_into(self, eye: _Eye, index: int, view, clip_from_view) -> None:
+    def _resolve_into(self, eye: HeadsetEye, index: int, view, clip_from_view) -> None:
         ctx = self.gl.ctx
         srgb = self.session.srgb
         if srgb:  # our output is linear: the hardware encodes into the sRGB image
@@ -350,25 +330,10 @@ class XRBridge:
         try:
             self.drawer.draw_resolved(view, self.settings.exposure)
             if self.settings.show_hud:
-                self._draw_hud(eye, index, view, clip_from_view)
+                eye.draw_hud(clip_from_view, self._eye_offset(index), self._material_name())
         finally:
             if srgb:
                 ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
-
-    def _draw_hud(self, eye: _Eye, index: int, view, clip_from_view) -> None:
-        now = self.clock()
-        if now - eye.hud_time >= HUD_REFRESH_S or view.state.converged:
-            lines = status_lines(
-                self._material_name(), view.state.done, view.state.total, eye.budget.status()
-            )
-            if lines != eye.hud_lines:
-                eye.hud_lines, eye.hud_image = lines, raster_text(lines)
-            eye.hud_time = now
-        if eye.hud is None:
-            eye.hud = HudDrawer(self.device)
-        eye.hud.set_image(eye.hud_image)  # uploads only when this eye's text changed
-        aspect = eye.hud_image.shape[1] / eye.hud_image.shape[0]
-        eye.hud.draw(clip_from_view, hud_quad(self._eye_offset(index), aspect))
 
     def _eye_offset(self, index: int) -> float:
         """∓IPD/2: the eyes' distance as located (the profile's IPD before two are known)."""
@@ -454,8 +419,7 @@ class XRBridge:
             with self.device.bound(view.output):  # the same draws, into a float target
                 self.drawer.draw_resolved(view, self.settings.exposure)
                 if self.settings.show_hud and eye.hud_image is not None:
-                    eye.hud.set_image(eye.hud_image)
-                    eye.hud.draw(clip_from_view, self._hud_corners(eye, index))
+                    eye.draw_hud_image(clip_from_view, self._eye_offset(index))
             meta = {
                 "display_time_ns": info.display_time,
                 "runtime": session.runtime_name,
@@ -482,10 +446,6 @@ class XRBridge:
             }
             write_eye(Path(self.settings.capture_dir), self.frames, name, view.read(), meta)
 
-    def _hud_corners(self, eye: _Eye, index: int) -> np.ndarray:
-        aspect = eye.hud_image.shape[1] / eye.hud_image.shape[0]
-        return hud_quad(self._eye_offset(index), aspect)
-
     def close(self) -> None:
         """Release everything in reverse order (idempotent; safe after a failed start)."""
         if self.controls is not None:
@@ -494,10 +454,7 @@ class XRBridge:
         if self.gl is not None and self.gl.context is not None:
             self.gl.make_current()
         for eye in self.eyes:
-            eye.image.release()
-            if eye.hud is not None:
-                eye.hud.release()
-                eye.hud = None
+            eye.release()
         if self.drawer is not None:
             self.drawer.release()
             self.drawer = None

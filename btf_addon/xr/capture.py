@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.fileio import atomic_write
-from ..core.imageio import write_exr
+from ..core.formats.imageio import write_exr
 
 
 def write_eye(directory: Path, frame: int, eye: str, image: np.ndarray, meta: dict) -> Path:

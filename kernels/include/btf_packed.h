@@ -1,5 +1,5 @@
 /* BTF evaluation from the packed table layout shared with the GLSL back end
- * (btf_addon/core/packed.py writes it; shaders/btf_*_lib.glsl read the same layout). One material
+ * (btf_addon/core/codecs/packed.py writes it; shaders/btf_*_lib.glsl read the same layout). One material
  * is two streams: `I` (integers stored exactly as floats) and `F` (floats), each starting with a
  * header of sizes and table offsets. Reference for every step: btf_addon/core (numpy). */
 #ifndef BTF_PACKED_H
@@ -12,7 +12,7 @@
 #define FTAB(i) (F[(i)])
 
 /* Header slots (H_*: integer stream, F_*: float stream) and codec ids (CODEC_*) are not written
- * here: btf_addon/core/packed.py defines the layout once and cl/programs.py passes it to every
+ * here: btf_addon/core/codecs/packed.py defines the layout once and cl/programs.py passes it to every
  * build as -D options (packed.defines()). */
 #if !defined(H_CODEC) || !defined(F_VALUE_SCALE) || !defined(CODEC_MLVQ)
 #error "packed-layout defines missing: build through btf_addon/cl/programs.py build_program"
@@ -76,7 +76,7 @@ inline float btf_mod(float x, float m)
  * → (α) curve → β samples), the per-decode constants are computed once (the Hermite step's
  * three weights, every table offset), each curve is one 3-float read, and the angles use
  * branch-free polynomials instead of PoCL's scalar libm (one sincos, two atan2). Same
- * arithmetic as btf_addon/core/mlvq.py up to float rounding (tests/kernels/test_decode_speed.py
+ * arithmetic as btf_addon/core/codecs/mlvq.py up to float rounding (tests/kernels/test_decode_speed.py
  * states the tolerance). */
 
 /* The angle maths (atan2, sincos, the four indices and the Hermite weights), for float here;
@@ -486,7 +486,7 @@ inline float3 btf_evaluate(Stream I, Stream F, float2 uv, float3 wi, float3 wo, 
   if (codec == CODEC_GGX) {
     return albedo * ggx;
   }
-  /* CODEC_PRINCIPLED, as PrincipledBTF in btf_addon/core/analytic.py */
+  /* CODEC_PRINCIPLED, as PrincipledBTF in btf_addon/core/codecs/analytic.py */
   float metallic = FTAB(F_METALLIC), sigma = FTAB(F_DIFFUSE_ROUGHNESS);
   float f0d = FTAB(F_SPECULAR_F0);
   float3 f0 = f0d + (albedo - f0d) * metallic;

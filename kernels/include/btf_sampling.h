@@ -2,7 +2,7 @@
  * known. Analytic GGX lobes (codecs ggx and principled) are sampled by their distribution of
  * visible normals (Heitz 2018, "Sampling the GGX Distribution of Visible Normals") mixed with
  * cosine sampling. Measured codecs (mlvq, dense, svd) packed with a sampling table
- * (btf_addon/core/btf_importance.py: H_F_IMPORTANCE ≠ 0) sample it: per view bin a piecewise-
+ * (btf_addon/core/sampling/btf_importance.py: H_F_IMPORTANCE ≠ 0) sample it: per view bin a piecewise-
  * constant density D on the concentric square (already mixed with the uniform square, i.e.
  * cosine sampling), pdf = D · cos θi / π; without a table, cosine sampling alone. The pdf of
  * the mixture is what MIS weighs the environment's samples against.
@@ -36,7 +36,7 @@ inline int cdf_search(Stream cdf, int n, float u)
 
 #if HAS_BTF_IS
 /* Shirley and Chiu's concentric map [0,1]² → unit disk, and its inverse (as
- * core/btf_importance.py square_to_disk / disk_to_square). */
+ * core/sampling/btf_importance.py square_to_disk / disk_to_square). */
 inline float2 is_square_to_disk(float2 s)
 {
   float a = 2.0f * s.x - 1.0f, b = 2.0f * s.y - 1.0f;

@@ -76,7 +76,7 @@ inline void box_frame(float3 n, float3 along_u, float3 along_v, float3 *t, float
 }
 
 /* The material block's mapping at a surface point (block: MATERIAL_BLOCK_FLOATS floats, slots
- * M_* from btf_addon/core/packed.py). Needs sp->p, n, t, b, uv. */
+ * M_* from btf_addon/core/codecs/packed.py). Needs sp->p, n, t, b, uv. */
 inline void map_point(SurfacePoint *sp, __global const float *mb)
 {
   float2 a0 = (float2)(mb[M_UV_MATRIX], mb[M_UV_MATRIX + 1]); /* rows of A */

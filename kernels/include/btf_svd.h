@@ -1,4 +1,4 @@
-/* The svd codec (UBO2014 DFMF) from the packed layout: btf_addon/core/svd.py is the reference.
+/* The svd codec (UBO2014 DFMF) from the packed layout: btf_addon/core/codecs/svd.py is the reference.
  * Per channel c: value y_c = sum_k U_c[pair, k] * SV_c[texel, k]; the colour transform turns
  * y into RGB per measured direction pair; pairs are blended ring-bilinearly (view, then light
  * at the same azimuth relative to the view), as the dense codec but with each sample's own
@@ -37,7 +37,7 @@ inline float svd_channel(Stream I, Stream F, int channels, int c, int pair, int 
 }
 
 /* ring_weights (btf_packed.h) with every sample's own azimuth (table phi_off, ring order,
- * increasing within a ring): as svd.ring_weights in btf_addon/core/svd.py. */
+ * increasing within a ring): as svd.ring_weights in btf_addon/core/codecs/svd.py. */
 inline void svd_ring_weights(Stream I, Stream F, int theta_off, int offsets_off, int phi_off,
                              int n_rings, float theta, float phi, int idx[4], float w[4])
 {

@@ -8,8 +8,8 @@ import json
 import numpy as np
 from blender_helpers import extension_submodule, sphere_on_ground
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
 
 
 def _small_scene(bpy, tmp_path):

@@ -14,8 +14,8 @@ import pytest
 from blender_helpers import extension_submodule, sphere_on_ground, with_nodes
 from helpers import shared_material
 
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr
 
 
 def f12_and_reference(bpy, scene, tmp_path, engine="opencl"):
@@ -54,7 +54,7 @@ def without_opencl(monkeypatch):
 
 
 def test_f12_renders_through_opencl(bpy_module, fresh_scene, tmp_path):
-    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.codecs.analytic import GGXBTF
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
     scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
@@ -73,7 +73,7 @@ def blender_output(capfd) -> str:
 def test_f12_without_opencl_falls_back_to_glsl(
     bpy_module, fresh_scene, tmp_path, without_opencl, capfd
 ):
-    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.codecs.analytic import GGXBTF
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
     scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm")
@@ -93,7 +93,7 @@ def test_f12_without_opencl_falls_back_to_glsl(
 def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_path, without_opencl):
     """F12's GLSL fallback with a point and a spot light equals the standalone renderer, and
     the lights show."""
-    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.codecs.analytic import GGXBTF
 
     bpy = bpy_module
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
@@ -162,7 +162,7 @@ def test_f12_compile_error_is_an_error_not_a_fallback(
     one bad line) fails F12 with the compiler's message — kernel file, device, the log's
     line:column of the error — and renders nothing: no image is saved and the GLSL fallback,
     which is for missing devices only, is not used."""
-    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.codecs.analytic import GGXBTF
 
     programs = extension_submodule("btf_addon.cl.programs")
     kernels = tmp_path / "kernels"
@@ -206,7 +206,7 @@ def test_engine_is_registered_with_its_panels(bpy_module, installed):
 
 @pytest.mark.parametrize("lighting", ["HEADLIGHT"])
 def test_headlight_mode_lights_the_view(bpy_module, fresh_scene, tmp_path, lighting):
-    from btf_addon.core.analytic import LambertianBTF
+    from btf_addon.core.codecs.analytic import LambertianBTF
 
     write_container(tmp_path / "white.btfm", LambertianBTF(1.0))
     scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "white.btfm")
@@ -223,7 +223,7 @@ def test_f12_passes_hold_depth_normal_and_uv(bpy_module, fresh_scene, tmp_path, 
     straight down from z = 5 by a 50 mm lens on a 36 mm sensor. Blender 5's write_still
     saves only the Combined pass, so the passes are read from the render result as the
     engine hands it back to Blender (``end_result``)."""
-    from btf_addon.core.analytic import LambertianBTF
+    from btf_addon.core.codecs.analytic import LambertianBTF
 
     bpy = bpy_module
     w, h = 64, 48
@@ -287,7 +287,7 @@ def test_f12_passes_hold_depth_normal_and_uv(bpy_module, fresh_scene, tmp_path, 
 
 def test_f12_sampled_mode(bpy_module, fresh_scene, tmp_path):
     """Final render in the Monte Carlo mode: same scene, converging to the virtual-light image."""
-    from btf_addon.core.analytic import LambertianBTF
+    from btf_addon.core.codecs.analytic import LambertianBTF
 
     write_container(tmp_path / "white.btfm", LambertianBTF(0.7))
     scene = sphere_on_ground(bpy_module, tmp_path, tmp_path / "white.btfm")
@@ -339,7 +339,7 @@ def test_f12_skips_a_device_that_cannot_build_and_says_so(
     """A GPU listed first (so tried first) cannot build: F12 ray traces on the device that
     would have been used without it, with one warning naming the skipped device and the
     compiler's reason."""
-    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.codecs.analytic import GGXBTF
 
     devices = extension_submodule("btf_addon.cl.devices")
     try:
@@ -372,7 +372,7 @@ def test_f12_when_no_device_builds_draws_glsl_with_one_warning(
     """Every device fails its probe (a machine whose only driver is the bundled PoCL on a too
     new CPU): F12 draws through the GLSL path, the same image as the standalone renderer, with
     one warning that names each device's reason and what to install."""
-    from btf_addon.core.analytic import GGXBTF
+    from btf_addon.core.codecs.analytic import GGXBTF
 
     injected_probes(lambda info: True, TOO_NEW)
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))

@@ -12,7 +12,7 @@ from blender_helpers import EXTENSION_MODULE, extension_submodule, init_gpu_modu
 def test_zip_holds_the_extension_and_nothing_else(extension_zip):
     names = zipfile.ZipFile(extension_zip).namelist()
     assert "blender_manifest.toml" in names and "__init__.py" in names
-    assert "btf_addon/core/mlvq.py" in names
+    assert "btf_addon/core/codecs/mlvq.py" in names
     assert any(n.startswith("wheels/pyopencl-") and "manylinux" in n for n in names)
     assert not any("win_amd64" in n or "macosx" in n for n in names)  # split per platform
     banned = (

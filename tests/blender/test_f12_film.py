@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from blender_helpers import extension_submodule, with_nodes
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
 
 W, H = 37, 23  # odd, and not multiples of anything: region arithmetic must be exact
 

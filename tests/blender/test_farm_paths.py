@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from blender_helpers import EXTENSION_MODULE, extension_submodule, with_nodes
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
 
 
 def btf_material(bpy, source: str, name: str = "Grey"):
@@ -117,7 +117,7 @@ def test_missing_source_fails_the_render_or_renders_magenta(
     bpy_module, fresh_scene, tmp_path, preferences
 ):
     """A missing BTF used to render a plausible colour with a warning and a successful job."""
-    from btf_addon.core.imageio import read_exr
+    from btf_addon.core.formats.imageio import read_exr
 
     bpy = bpy_module
     small_render_scene(bpy, tmp_path, str(tmp_path / "missing.btfm"))
@@ -147,6 +147,6 @@ def test_a_blend_and_its_folder_render_elsewhere(bpy_module, fresh_scene, tmp_pa
     scene = bpy.context.scene
     scene.render.filepath = str(tmp_path / "farm.exr")
     assert bpy.ops.render.render(write_still=True) == {"FINISHED"}  # FAIL mode: it loaded
-    from btf_addon.core.imageio import read_exr
+    from btf_addon.core.formats.imageio import read_exr
 
     assert np.ptp(read_exr(tmp_path / "farm.exr")[8, 8]) < 1e-3  # grey, not magenta

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 from blender_helpers import extension_submodule, sphere_on_ground
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr
 
 
 def test_fixed_launch_split_reaches_the_plan_and_repeats_bits(

@@ -6,8 +6,8 @@ import numpy as np
 from blender_helpers import extension_submodule, init_gpu_module
 from helpers import random_queries, shared_material
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
 
 
 def test_blender_gpu_decode_matches_numpy(bpy_module, fresh_scene, rng):
@@ -15,7 +15,7 @@ def test_blender_gpu_decode_matches_numpy(bpy_module, fresh_scene, rng):
     import blender_gpu_query as gpu_query
 
     # The extension's own core classes: its module path differs from the checkout's.
-    mlvq = extension_submodule("btf_addon.core.mlvq")
+    mlvq = extension_submodule("btf_addon.core.codecs.mlvq")
     btf = mlvq.MLVQBTF.from_directory(shared_material("alu"))
     reference = MLVQBTF.from_directory(shared_material("alu"))
     n = 10_000
@@ -31,7 +31,7 @@ def test_blender_gpu_ggx(bpy_module, fresh_scene, rng):
     init_gpu_module(bpy_module)
     import blender_gpu_query as gpu_query
 
-    analytic = extension_submodule("btf_addon.core.analytic")
+    analytic = extension_submodule("btf_addon.core.codecs.analytic")
     n = 2_000
     q = random_queries(rng, n)
     got = gpu_query.blender_gpu_btf(analytic.GGXBTF(0.8, 0.5)).evaluate_angles(q)
@@ -41,7 +41,7 @@ def test_blender_gpu_ggx(bpy_module, fresh_scene, rng):
 
 def test_blender_shaders_see_the_python_layout(bpy_module, fresh_scene, tmp_path):
     """The create-info path (GPUShaderCreateInfo.define) gives the layout macros exactly
-    core/packed.py's numbers: a probe with the query shader's interface and libraries writes
+    core/codecs/packed.py's numbers: a probe with the query shader's interface and libraries writes
     the i-th macro's value at pixel i (integers below 2^24: exact in the float target)."""
     import dataclasses
 
@@ -50,7 +50,7 @@ def test_blender_shaders_see_the_python_layout(bpy_module, fresh_scene, tmp_path
 
     init_gpu_module(bpy_module)
     interface = extension_submodule("btf_addon.gl.interface")
-    layout = extension_submodule("btf_addon.core.packed").defines()
+    layout = extension_submodule("btf_addon.core.codecs.packed").defines()
     names = list(layout)
     (tmp_path / "probe_frag.glsl").write_text(
         "void main()\n{\n"

@@ -21,9 +21,9 @@ from helpers import (
     venv_opencl_vendors,
 )
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr
 
 #: The saved scene: a GGX BTF sphere on a plain ground under forest.exr, 64×48, with
 #: non-default render settings (lights_total 7, seed 3) that the CLI must honour.

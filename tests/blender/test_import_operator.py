@@ -7,8 +7,8 @@ import pytest
 from blender_helpers import extension_submodule
 from helpers import shared_material
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
 
 
 def _scene_with_selection(bpy, tmp_path):
@@ -68,7 +68,7 @@ def test_a_corrupt_file_changes_nothing(bpy_module, fresh_scene, tmp_path):
 
 def test_procedural_btfs_are_refused_at_import(bpy_module, fresh_scene, tmp_path):
     """A BTF the GPU back ends cannot draw is refused when imported, not at F12."""
-    from btf_addon.core.microgeometry import woven
+    from btf_addon.core.codecs.microgeometry import woven
 
     bpy = bpy_module
     _scene_with_selection(bpy, tmp_path)

@@ -9,8 +9,8 @@ import pytest
 from blender_helpers import extension_submodule
 from helpers import count_periods, shared_material, stripe_btf
 
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr
 
 
 def _plane_without_uvs(bpy, size: float):

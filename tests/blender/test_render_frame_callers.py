@@ -10,7 +10,7 @@ import numpy as np
 from aa_scenes import checker_btf
 from blender_helpers import extension_submodule, sphere_on_ground
 
-from btf_addon.core.container import write_container
+from btf_addon.core.formats.container import write_container
 
 
 def _checker_scene(bpy, tmp_path, size=(32, 24)):

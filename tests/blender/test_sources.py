@@ -9,8 +9,8 @@ import pytest
 from blender_helpers import extension_submodule, with_nodes
 from helpers import shared_material
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
 
 
 def paths():

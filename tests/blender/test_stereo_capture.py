@@ -12,9 +12,9 @@ import pytest
 from blender_helpers import sphere_on_ground
 from helpers import read_png
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr, srgb8_from_linear
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr, srgb8_from_linear
 
 
 def blender_output(capfd) -> str:

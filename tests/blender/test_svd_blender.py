@@ -13,7 +13,7 @@ def test_blender_gpu_svd_matches_numpy_within_1_255(bpy_module, fresh_scene, rng
     init_gpu_module(bpy_module)
     import blender_gpu_query as gpu_query
 
-    svd_mod = extension_submodule("btf_addon.core.svd")
+    svd_mod = extension_submodule("btf_addon.core.codecs.svd")
     reference = svd_cases()["yuv"]
     # The extension's own class (its module path differs from the checkout's).
     btf = svd_mod.SVDBTF.from_params(reference.params(), reference.tables())
@@ -26,7 +26,7 @@ def test_blender_gpu_svd_matches_numpy_within_1_255(bpy_module, fresh_scene, rng
 
 def test_import_operator_takes_a_ubo2014_btf(bpy_module, fresh_scene, tmp_path):
     bpy = bpy_module
-    from btf_addon.core.ubo2014_writer import write_ubo2014
+    from btf_addon.core.formats.ubo2014_writer import write_ubo2014
 
     path = tmp_path / "woven.btf"
     write_ubo2014(path, svd_cases()["yuv"])

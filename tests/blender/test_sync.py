@@ -16,8 +16,8 @@ import pytest
 from blender_helpers import extension_submodule, sphere_on_ground
 from helpers import ROOT
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
 
 #: (resolution, percentage) pairs where the float rule ``int(res * pct / 100)`` is a pixel
 #: short of Blender's ``res * pct // 100``.
@@ -143,8 +143,8 @@ def test_every_entry_point_reads_blender_through_sync(package):
 
 def test_one_meaning_per_enum_number_and_one_default(bpy_module, installed):
     """The material's mapping and texel filter: Blender's EnumProperty numbers are the packed
-    block's numbers (core/packed.py), and the plain-array defaults are the properties'."""
-    packed = extension_submodule("btf_addon.core.packed")
+    block's numbers (core/codecs/packed.py), and the plain-array defaults are the properties'."""
+    packed = extension_submodule("btf_addon.core.codecs.packed")
     mapping = extension_submodule("btf_addon.core.mapping")
     scene = extension_submodule("btf_addon.scene.scene")
     props = bpy_module.types.Material.bl_rna.properties["btf"].fixed_type.properties

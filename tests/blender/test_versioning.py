@@ -78,7 +78,7 @@ def test_a_version_0_file_renders_as_it_did(bpy_module, installed, tmp_path):
     (tests/data/settings_v0.exr), whatever defaults have changed since. Virtual Lights is
     deterministic; 1e-4 of the brightest value allows for float reassociation between kernel
     builds, far below any change of filtering, mapping or mode (those move whole texels)."""
-    from btf_addon.core.imageio import read_exr
+    from btf_addon.core.formats.imageio import read_exr
 
     bpy = bpy_module
     open_v0(bpy, tmp_path)

@@ -20,8 +20,8 @@ from blender_helpers import (
 )
 from helpers import shared_material
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.container import write_container
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.formats.container import write_container
 
 # The compiled packages the manifest bundles, by an extension module each one installs.
 COMPILED = {

@@ -54,8 +54,8 @@ def lit_scene(bpy, tmp_path):
     """A GGX sphere (a .btfm container), a plain diffuse ground, a point light, the forest
     World and a camera: every input of the drawer (two materials' tables, Blender's lights,
     the environment's bilinear lookups behind the objects)."""
-    from btf_addon.core.analytic import GGXBTF
-    from btf_addon.core.container import write_container
+    from btf_addon.core.codecs.analytic import GGXBTF
+    from btf_addon.core.formats.container import write_container
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
     scene = sphere_on_ground(bpy, tmp_path, tmp_path / "ggx.btfm", segments=32, rings=16)

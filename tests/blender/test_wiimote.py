@@ -737,13 +737,13 @@ def test_lights_per_frame_in_a_headset_changes_what_the_headset_reads(bpy_module
         pytest.skip("this Blender build has no OpenXR: no VR session, no scene.btf_vr")
     edits = extension_submodule("btf_addon.blender.wiimote.edits")
     actions = extension_submodule("btf_addon.controllers.actions")
-    xr = extension_submodule("btf_addon.blender.vr.preview")
+    sync = extension_submodule("btf_addon.blender.sync")
     ctx = edits.EditContext(scene, bpy.context.view_layer)
     ctx.xr_source = lambda: _vr_state(Vector((0.0, -4.0, 1.0)))
     redraw, per_frame = scene.btf_render.lights_per_redraw, scene.btf_vr.lights_per_frame
     assert scene.btf_vr.lights_mode == "BUDGET"
     message = edits.apply_edit(ctx, actions.Edit(0.0, actions.Action.LIGHTS_MORE))
-    read = xr.VRSettings.from_properties(scene.btf_vr)  # what the headset's callback reads
+    read = sync.vr_settings(scene)  # what the headset's callback reads
     assert not read.use_budget and read.lights_per_frame == per_frame + 1
     assert scene.btf_render.lights_per_redraw == redraw  # the viewport's K is untouched
     assert message == f"VR lights per frame {per_frame + 1} (fixed)"

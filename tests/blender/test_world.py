@@ -10,8 +10,8 @@ import pytest
 from blender_helpers import extension_submodule, with_nodes
 from helpers import random_hemisphere, studiolights_dir
 
-from btf_addon.core.envmap import Environment
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.formats.imageio import read_exr
+from btf_addon.core.sampling.envmap import Environment
 
 
 def environment_from_world(world):

@@ -23,8 +23,8 @@ SCALE = 0.25  # the "simulated" profile's 320×240 per eye → 80×60: llvmpipe 
 def vr_scene(bpy_module, fresh_scene, tmp_path):
     """A GGX sphere (BTF) on a plain green ground, a plain red cube in front of the sphere's
     lower right (a non-BTF object occluding a BTF one), the forest World."""
-    from btf_addon.core.analytic import GGXBTF
-    from btf_addon.core.container import write_container
+    from btf_addon.core.codecs.analytic import GGXBTF
+    from btf_addon.core.formats.container import write_container
 
     bpy = bpy_module
     init_gpu_module(bpy)

@@ -67,8 +67,8 @@ class StandInBridge:
 
 @pytest.fixture
 def bridge_scene(bpy_module, fresh_scene, tmp_path):
-    from btf_addon.core.analytic import GGXBTF
-    from btf_addon.core.container import write_container
+    from btf_addon.core.codecs.analytic import GGXBTF
+    from btf_addon.core.formats.container import write_container
 
     write_container(tmp_path / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))
     return sphere_on_ground(bpy_module, tmp_path, tmp_path / "ggx.btfm", segments=16, rings=8)

@@ -11,9 +11,9 @@ import time
 import numpy as np
 from helpers import ROOT, cli_env, make_blend, read_png, run_cli
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr
 from btf_addon.render.accuracy.ladder import relative_rmse
 
 #: A Lambertian sphere on a Lambertian ground under the forest studiolight, 64×48: shadows and

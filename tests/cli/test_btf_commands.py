@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from helpers import cli_env, run_cli, shared_material, studiolights_dir
 
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.imageio import read_exr, write_exr
+from btf_addon.core.formats.imageio import read_exr, write_exr
+from btf_addon.core.formats.load import load_btf
 
 
 def test_info_reports_the_raw_size_and_ratio():

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from btf_addon.cli.main import main
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.container import write_container
 from btf_addon.core.encoders import metrics
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.load import load_btf
 
 ROOT = Path(__file__).resolve().parents[2]
 KNOBS = ["--k1", "24", "--k2", "24", "--k3", "8", "--k4", "4", "--colours", "4"]
@@ -81,7 +81,7 @@ def test_ctrl_c_during_encoding_leaves_no_file(source, tmp_path):
 
 
 def test_nan_free_output_from_a_black_material(tmp_path, capsys):
-    from btf_addon.core.dense import DenseBTF
+    from btf_addon.core.codecs.dense import DenseBTF
 
     src = write_container(
         tmp_path / "black.btfm", DenseBTF(np.zeros((81, 81, 1, 2, 3), np.float32), name="b")

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from btf_addon.cli.main import main
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.container import write_container
 from btf_addon.core.encoders import metrics
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.load import load_btf
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -30,7 +30,7 @@ def source(tmp_path_factory) -> Path:
 
     data = synthetic().data.copy()
     data[:, :, 1, 2] *= np.linspace(0.5, 1.5, 81)[None, :, None]  # more than rank 1 per channel
-    from btf_addon.core.dense import DenseBTF
+    from btf_addon.core.codecs.dense import DenseBTF
 
     return write_container(tmp_path_factory.mktemp("src") / "syn.btfm", DenseBTF(data, name="s"))
 

@@ -208,7 +208,7 @@ def test_query_files_that_are_not_real_n_by_6_arrays_are_refused(tmp_path, mater
     ],
 )
 def test_envmap_refuses_non_finite_parameters(tmp_path, args, message):
-    from btf_addon.core.imageio import write_exr
+    from btf_addon.core.formats.imageio import write_exr
 
     write_exr(tmp_path / "e.exr", np.ones((4, 8, 3), np.float32))
     proc = run_cli("envmap", tmp_path / "e.exr", *args, "-o", tmp_path / "l.npz", check=False)

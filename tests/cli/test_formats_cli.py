@@ -8,11 +8,11 @@ import shutil
 import numpy as np
 from helpers import run_cli, shared_material
 
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.container import write_container
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.load import load_btf
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
 
 
 def test_info_says_a_folder_was_read_from_binary_btf(tmp_path):

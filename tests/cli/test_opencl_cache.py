@@ -14,7 +14,7 @@ import pytest
 from helpers import cli_env, run_cli
 
 from btf_addon.cl import programs
-from btf_addon.core.codecs import load_btf
+from btf_addon.core.formats.load import load_btf
 
 pytestmark = pytest.mark.opencl
 

@@ -130,8 +130,8 @@ assert len(os.listdir({out!r} + "/capture")) > 0
 
 @pytest.fixture(scope="module")
 def blend(tmp_path_factory):
-    from btf_addon.core.analytic import GGXBTF
-    from btf_addon.core.container import write_container
+    from btf_addon.core.codecs.analytic import GGXBTF
+    from btf_addon.core.formats.container import write_container
 
     folder = tmp_path_factory.mktemp("exits")
     write_container(folder / "ggx.btfm", GGXBTF((0.9, 0.6, 0.3), 0.4))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from helpers import cli_env, make_blend, read_png, run_cli
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.container import write_container
-from btf_addon.core.imageio import read_exr, srgb8_from_linear
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.formats.container import write_container
+from btf_addon.core.formats.imageio import read_exr, srgb8_from_linear
 
 
 def test_demo_renders_a_png_and_reports_timing(tmp_path):
@@ -20,7 +20,7 @@ def test_demo_renders_a_png_and_reports_timing(tmp_path):
     assert "96x54 with 8 virtual lights" in proc.stdout and " s -> " in proc.stdout
     # The demo's Standard view without dither: the PNG is the sRGB curve of the linear render.
     # Blender's OpenColorIO rounds a value within 1/255 of a code boundary either way, where
-    # core.imageio rounds to nearest: at most 1 code apart, on under 1 % of the pixels.
+    # core.formats.imageio rounds to nearest: at most 1 code apart, on under 1 % of the pixels.
     exr = tmp_path / "demo.exr"
     run_cli(*args, "-o", exr)
     png = read_png(out)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from helpers import ROOT, run_cli, run_python
 
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.formats.imageio import read_exr
 
 WORLD = (0.3, 0.5, 0.7)
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from helpers import make_blend, read_png, run_cli
 
-from btf_addon.core.imageio import read_exr, srgb8_from_linear
+from btf_addon.core.formats.imageio import read_exr, srgb8_from_linear
 
 ARGS = ("render", "--demo", "--stereo", "simulated", "--eye-width", "48", "--lights", "8")
 

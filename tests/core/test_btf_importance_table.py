@@ -1,4 +1,5 @@
-"""The sampling table's numpy side (core/btf_importance.py): the maps, the density, the layout."""
+"""The sampling table's numpy side (core/sampling/btf_importance.py): the maps, the density, the
+layout."""
 
 from __future__ import annotations
 
@@ -6,9 +7,9 @@ import math
 
 import numpy as np
 
-from btf_addon.core import btf_importance as bi
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.packed import INT_SLOT, pack
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.packed import INT_SLOT, pack
+from btf_addon.core.sampling import btf_importance as bi
 
 
 def test_concentric_maps_invert_and_preserve_area(rng):

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from helpers import shared_material
 
-from btf_addon.core import btfbase_binary
-from btf_addon.core.codecs import load_btf
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.errors import BTFFormatError
+from btf_addon.core.formats import btfbase_binary
+from btf_addon.core.formats.load import load_btf
 from btf_addon.core.grid import UBO2003
-from btf_addon.core.mlvq import MLVQBTF
 
 FLOATS = ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale")
 

@@ -6,14 +6,15 @@ import numpy as np
 import pytest
 from helpers import random_hemisphere, shared_material
 
-from btf_addon.core import container, fileio
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.dense import tabulate
+from btf_addon.core import fileio
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import leather
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
+from btf_addon.core.formats import container
+from btf_addon.core.formats.load import load_btf
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import leather
-from btf_addon.core.mlvq import MLVQBTF
 
 
 def _btfs():

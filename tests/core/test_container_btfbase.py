@@ -8,8 +8,8 @@ import shutil
 import pytest
 from helpers import shared_material
 
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.errors import BTFFormatError
-from btf_addon.core.mlvq import MLVQBTF
 
 
 @pytest.fixture

@@ -10,11 +10,11 @@ import struct
 import pytest
 from helpers import shared_material
 
-from btf_addon.core import container
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.codecs import load_btf
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.errors import BTFError, BTFFormatError
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.formats import container
+from btf_addon.core.formats.load import load_btf
 
 
 def rewrite(path, edit) -> None:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from helpers import random_hemisphere
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.dense import DenseBTF, tabulate
 from btf_addon.core.errors import BTFFormatError
 from btf_addon.core.grid import UBO2003, RingGrid, uniform_ring_grid
 
@@ -120,8 +120,8 @@ def _rel_rmse(a, b):
 def test_tabulate_in_light_blocks_equals_one_call_per_view(monkeypatch):
     """Tabulating in blocks of lights (a bounded working set) gives exactly the values of one
     evaluation per view: the blocks only split the same queries."""
-    from btf_addon.core import dense
-    from btf_addon.core.microgeometry import leather
+    from btf_addon.core.codecs import dense
+    from btf_addon.core.codecs.microgeometry import leather
 
     btf = leather(texels=4, fine_per_texel=2)
     whole = dense.tabulate(btf, UBO2003, UBO2003)

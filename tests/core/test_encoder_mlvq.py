@@ -10,9 +10,9 @@ import time
 import numpy as np
 import pytest
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.container import read_container, write_container
-from btf_addon.core.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.encoders import metrics
 from btf_addon.core.encoders.mlvq import (
     MLVQSettings,
@@ -24,7 +24,7 @@ from btf_addon.core.encoders.mlvq import (
     sample_grid,
 )
 from btf_addon.core.errors import BTFFormatError
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.formats.container import read_container, write_container
 
 SMALL = MLVQSettings(k1=24, k2=24, k3=8, k4=4, k_colours=4, k_index_ab=6, k_colour_functions=8)
 

@@ -10,10 +10,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from btf_addon.blender.tools import compress as op  # noqa: E402
-from btf_addon.core.codecs import load_btf  # noqa: E402
-from btf_addon.core.container import write_container  # noqa: E402
 from btf_addon.core.encoders.mlvq import MLVQSettings  # noqa: E402
 from btf_addon.core.encoders.svd import SVDSettings  # noqa: E402
+from btf_addon.core.formats.container import write_container  # noqa: E402
+from btf_addon.core.formats.load import load_btf  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,11 @@ import numpy as np
 import pytest
 from helpers import random_queries
 
-from btf_addon.core.container import read_container, write_container
-from btf_addon.core.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.dense import DenseBTF, tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.svd import SVDBTF
+from btf_addon.core.codecs.svd_build import factorise
 from btf_addon.core.encoders import metrics
 from btf_addon.core.encoders.svd import (
     SVDSettings,
@@ -26,11 +29,8 @@ from btf_addon.core.encoders.svd import (
     truncate,
 )
 from btf_addon.core.errors import BTFFormatError
+from btf_addon.core.formats.container import read_container, write_container
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd import SVDBTF
-from btf_addon.core.svd_build import factorise
 
 
 @pytest.fixture(scope="module")

@@ -9,9 +9,9 @@ import pytest
 from helpers import studiolights_dir
 from scipy import stats
 
-from btf_addon.core.envmap import Environment
-from btf_addon.core.imageio import read_exr
-from btf_addon.core.sequences import sobol_2d
+from btf_addon.core.formats.imageio import read_exr
+from btf_addon.core.sampling.envmap import Environment
+from btf_addon.core.sampling.sequences import sobol_2d
 
 
 def synthetic_map(rng, h=32, w=64):

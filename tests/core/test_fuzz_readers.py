@@ -26,15 +26,16 @@ import pytest
 from helpers import shared_material
 
 from btf_addon.cli.main import main
-from btf_addon.core import container, memory
-from btf_addon.core.analytic import LambertianBTF, PrincipledBTF
-from btf_addon.core.dense import tabulate
+from btf_addon.core import memory
+from btf_addon.core.codecs.analytic import LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import leather
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.svd_build import factorise
+from btf_addon.core.formats import container
+from btf_addon.core.formats.imageio import write_exr
+from btf_addon.core.formats.ubo2014_writer import write_ubo2014
 from btf_addon.core.grid import UBO2003, uniform_ring_grid
-from btf_addon.core.imageio import write_exr
-from btf_addon.core.microgeometry import leather
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd_build import factorise
-from btf_addon.core.ubo2014_writer import write_ubo2014
 
 #: Seconds one case may take before it counts as a hang (the slowest valid read here, the
 #: BTFbase text of alu under tracemalloc, takes about 1 s).

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from helpers import shared_material
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from btf_addon.core.dense import tabulate
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.svd_build import factorise
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.svd_build import factorise
 
 
 def _codecs():
@@ -130,7 +130,7 @@ def test_huge_texture_coordinates_wrap_without_overflow(btf):
 
 
 def test_flat_microgeometry_is_lambertian(rng):
-    from btf_addon.core.microgeometry import MicrogeometryBTF
+    from btf_addon.core.codecs.microgeometry import MicrogeometryBTF
 
     flat = MicrogeometryBTF(np.zeros((16, 16)), np.full((16, 16, 3), 0.5), 4, "flat")
     n = 2000

@@ -8,11 +8,11 @@ import zipfile
 import numpy as np
 import pytest
 
-from btf_addon.core.codecs import load_btf
 from btf_addon.core.errors import BTFError, BTFFormatError
+from btf_addon.core.formats.image_sets import iter_set_names, load_image_set
+from btf_addon.core.formats.load import load_btf
+from btf_addon.core.formats.radiance_hdr import decode_hdr, encode_hdr
 from btf_addon.core.grid import UBO2003
-from btf_addon.core.image_sets import iter_set_names, load_image_set
-from btf_addon.core.radiance_hdr import decode_hdr, encode_hdr
 
 
 @pytest.fixture(scope="module")

@@ -29,8 +29,15 @@ LAYERS: dict[str, int] = {
 }
 
 
-def _imported_packages(path, root=ROOT) -> list[tuple[int, str]]:
-    """(line, package) for every import of a btf_addon package in one module."""
+#: core/'s rooms, bottom up: the modules directly under core/ (the model, errors, angles,
+#: colour, grids, mapping, files, memory, SSIM) are room "" and import no room; a room imports
+#: itself and lower rooms only, never a sibling. Written in docs/architecture.md too.
+CORE_ROOMS: dict[str, int] = {"": 0, "sampling": 1, "codecs": 2, "formats": 3, "encoders": 3}
+
+
+def _imported_packages(path, root=ROOT, depth=1) -> list[tuple[int, str]]:
+    """(line, package) for every import of a btf_addon package in one module; ``depth=2``:
+    (line, "core/<room>") for imports of core's rooms ("core/" for its top-level modules)."""
     parts = path.relative_to(root).with_suffix("").parts  # ("btf_addon", "cl", "renderer")
     is_init = parts[-1] == "__init__"
     found = []
@@ -54,8 +61,11 @@ def _imported_packages(path, root=ROOT) -> list[tuple[int, str]]:
             continue
         for name in names:
             bits = name.split(".")
-            if len(bits) >= 2 and bits[0] == "btf_addon":
+            if len(bits) >= 2 and bits[0] == "btf_addon" and depth == 1:
                 found.append((node.lineno, bits[1]))
+            elif len(bits) >= 3 and bits[:2] == ["btf_addon", "core"] and depth == 2:
+                room = bits[2] if bits[2] in CORE_ROOMS else ""
+                found.append((node.lineno, room))
     return found
 
 
@@ -83,6 +93,19 @@ def test_no_package_imports_a_higher_layer_or_a_sibling():
     assert offenders == []
 
 
+def test_cores_rooms_import_only_themselves_and_lower_rooms():
+    rooms = {p.name for p in (PACKAGE / "core").iterdir() if (p / "__init__.py").is_file()}
+    assert rooms == set(CORE_ROOMS) - {""}
+    offenders = []
+    for path in sorted((PACKAGE / "core").rglob("*.py")):
+        rel = path.relative_to(PACKAGE / "core")
+        own = rel.parts[0] if len(rel.parts) > 1 else ""
+        for line, target in _imported_packages(path, depth=2):
+            if target != own and CORE_ROOMS[target] >= CORE_ROOMS[own]:
+                offenders.append(f"btf_addon/core/{rel}:{line} ({own or 'core/'}) imports {target}")
+    assert offenders == []
+
+
 def test_the_resolver_sees_relative_and_deferred_imports(tmp_path):
     """The check above could pass by seeing nothing: prove it resolves the forms the code uses."""
     module = tmp_path / "btf_addon" / "cl" / "probe.py"
@@ -101,3 +124,5 @@ def test_architecture_doc_states_the_same_order():
     rows = re.findall(r"^\| (\d+) \| `btf_addon/(\w+)/`", text, flags=re.MULTILINE)
     documented = {name: int(order) for order, name in rows}
     assert documented == LAYERS
+    rooms = re.findall(r"^\| 1\.(\d) \| `btf_addon/core/(\w*)/?`", text, flags=re.MULTILINE)
+    assert {name: int(order) for order, name in rooms} == CORE_ROOMS

@@ -5,20 +5,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from btf_addon.core.dense import DenseBTF
+from btf_addon.core.codecs.dense import DenseBTF
+from btf_addon.core.codecs.packed import defines
 from btf_addon.core.grid import RingGrid
 from btf_addon.core.mapping import (
+    MATERIAL_BLOCK_FLOATS,
     Placement,
     bilinear_texels,
     box_weights,
     filtered_evaluate,
     map_points,
     mapped_evaluate,
+    material_block,
     rigid_frame,
     uv_units_per_uv,
 )
 from btf_addon.core.model import BTFMeta
-from btf_addon.core.packed import MATERIAL_BLOCK_FLOATS, defines, material_block
 from btf_addon.scene.primitives import plane
 from btf_addon.scene.scene import Material
 
@@ -69,7 +71,7 @@ def test_linear_filter_is_continuous_where_nearest_jumps(rng):
 
 
 def test_nearest_equals_evaluate_and_analytic_is_never_filtered(rng):
-    from btf_addon.core.analytic import LambertianBTF
+    from btf_addon.core.codecs.analytic import LambertianBTF
 
     btf = image_btf(rng.uniform(size=(3, 3, 3)))
     uv = rng.uniform(size=(50, 2))

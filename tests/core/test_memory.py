@@ -20,7 +20,7 @@ from helpers import ROOT, cli_env
 
 from btf_addon.core import memory
 from btf_addon.core.errors import BTFError
-from btf_addon.core.imageio import write_exr
+from btf_addon.core.formats.imageio import write_exr
 
 #: Address-space cap for the "completes" side: the interpreter with numpy and OpenEXR maps
 #: ~130 MB before any work, and each completing case below is estimated at ≤ 700 MB.

@@ -9,8 +9,8 @@ import pytest
 from helpers import random_queries
 from scalar_mlvq import ScalarMLVQ
 
+from btf_addon.core.codecs.mlvq import LDR_VALUE_SCALE, MLVQBTF
 from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
-from btf_addon.core.mlvq import LDR_VALUE_SCALE, MLVQBTF
 
 
 def test_decoder_matches_independent_scalar_decoder(material_dir, rng):

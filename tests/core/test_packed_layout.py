@@ -1,4 +1,5 @@
-"""The packed GPU table layout has one definition (core/packed.py): device code spells no slot.
+"""The packed GPU table layout has one definition (core/codecs/packed.py): device code spells no
+slot.
 
 The device halves of this check compile the layout into an OpenCL kernel and a GLSL shader and
 read every value back (tests/kernels/test_programs.py, tests/gl/test_glsl_decode.py,
@@ -13,12 +14,12 @@ import numpy as np
 import pytest
 from helpers import ROOT
 
-from btf_addon.core import packed
-from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs import packed
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
 from btf_addon.core.errors import UnsupportedBTFError
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
 from btf_addon.core.model import BTFMeta, DelegatingBTF
 
 DEVICE_FILES = sorted(
@@ -144,7 +145,7 @@ def test_a_codec_registers_beside_its_code(monkeypatch):
 
     packed.register_codec("constant", Constant, 9, pack_constant)
     assert packed.defines()["CODEC_CONSTANT"] == 9
-    from btf_addon.core.codecs import codec_class
+    from btf_addon.core.formats.load import codec_class
 
     assert codec_class("constant") is Constant
     tables = packed.pack(Constant())

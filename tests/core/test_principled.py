@@ -1,4 +1,5 @@
-"""The analytic material non-BTF objects render with (core/analytic.py PrincipledBTF), against
+"""The analytic material non-BTF objects render with (core/codecs/analytic.py PrincipledBTF),
+against
 formulas written out here independently: Fujii's Oren-Nayar as printed in the OpenCL ray tracer
 seed, the Lambertian and GGX presets it must reduce to, and energy conservation."""
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 from helpers import random_hemisphere
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 
 
 def _evaluate(btf, wi, wo):

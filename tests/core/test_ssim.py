@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from btf_addon.core import ssim
-from btf_addon.core.dense import DenseBTF
+from btf_addon.core.codecs.dense import DenseBTF
+from btf_addon.core.codecs.mlvq import LDR_VALUE_SCALE
 from btf_addon.core.encoders import metrics
 from btf_addon.core.grid import RingGrid
-from btf_addon.core.mlvq import LDR_VALUE_SCALE
 from btf_addon.render.accuracy import ladder
 
 

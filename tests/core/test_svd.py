@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from btf_addon.core.container import read_container, write_container
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.packed import pack
+from btf_addon.core.codecs.svd import colour_transform
+from btf_addon.core.codecs.svd_build import factorise, reduce_resolution
 from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
+from btf_addon.core.formats.container import read_container, write_container
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.packed import pack
-from btf_addon.core.svd import colour_transform
-from btf_addon.core.svd_build import factorise, reduce_resolution
 
 
 @pytest.fixture(scope="module")

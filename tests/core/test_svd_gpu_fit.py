@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from btf_addon.core.dense import DenseBTF
+from btf_addon.core.codecs.dense import DenseBTF
+from btf_addon.core.codecs.gpu_fit import fit_for_gpu, packed_floats
+from btf_addon.core.codecs.packed import pack
+from btf_addon.core.codecs.svd_build import factorise
 from btf_addon.core.errors import UnsupportedBTFError
-from btf_addon.core.gpu_fit import fit_for_gpu, packed_floats
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.packed import pack
-from btf_addon.core.svd_build import factorise
 
 GRID = uniform_ring_grid(30.0)  # 1 + 6 + 12 directions: small, cheap tests
 

@@ -8,14 +8,14 @@ import struct
 import numpy as np
 import pytest
 
-from btf_addon.core.codecs import load_btf
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.svd_build import factorise
 from btf_addon.core.errors import BTFFormatError, UnsupportedBTFError
+from btf_addon.core.formats.load import load_btf
+from btf_addon.core.formats.ubo2014 import load_ubo2014, read_ubo2014
+from btf_addon.core.formats.ubo2014_writer import dfmf_bytes, write_ubo2014
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.svd_build import factorise
-from btf_addon.core.ubo2014 import load_ubo2014, read_ubo2014
-from btf_addon.core.ubo2014_writer import dfmf_bytes, write_ubo2014
 
 YUV_TO_RGB = np.array([[1.0, 0.0, 1.13983], [1.0, -0.39465, -0.5806], [1.0, 2.03211, 0.0]])
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from aa_scenes import H, W, edge_scene, expected_edge, rel_rmse
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.envmap import Environment
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.render.pixel_filter import PixelFilter
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at

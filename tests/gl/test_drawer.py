@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.envmap import Environment
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.lights import PointLight
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at

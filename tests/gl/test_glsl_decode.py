@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from helpers import random_queries, shared_material
 
-from btf_addon.core import packed
-from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs import packed
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.errors import UnsupportedBTFError
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.mlvq import MLVQBTF
 from btf_addon.gl import interface
 from btf_addon.gl.interface import ShaderCompileError, ShaderInterface
 
@@ -53,7 +53,7 @@ def test_glsl_analytic_presets_match(gl_ctx, rng, btf):
 
 
 def test_glsl_dense_matches(gl_ctx, rng):
-    from btf_addon.core.dense import tabulate
+    from btf_addon.core.codecs.dense import tabulate
     from btf_addon.core.grid import uniform_ring_grid
     from btf_addon.gl.query import glsl_btf
 
@@ -125,7 +125,7 @@ def _layout_probe(tmp_path) -> ShaderInterface:
 
 def test_glsl_sees_the_python_layout(gl_ctx, tmp_path):
     """Built the way every shader is (gl/interface.py), the layout macros hold exactly
-    core/packed.py's numbers (integers below 2^24: exact in the float target)."""
+    core/codecs/packed.py's numbers (integers below 2^24: exact in the float target)."""
     from btf_addon.gl.query import compile_program
 
     names = list(packed.defines())

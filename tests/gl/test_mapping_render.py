@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from helpers import count_periods, shared_material, stripe_btf
 
-from btf_addon.core.envmap import Environment, VirtualLights
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.mapping import mapped_evaluate
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.sampling.envmap import Environment, VirtualLights
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
@@ -196,7 +196,8 @@ def test_box_mapped_cube_turns_with_its_object_in_object_space_only(gl_ctx, spac
 def test_material_blocks_past_the_first_texture_row(gl_ctx):
     """Blocks are laid out TABLE_WIDTH floats a row (any number of instances fits): a mesh
     whose block lies on the texture's second row draws as the same mesh drawn alone."""
-    from btf_addon.core.packed import MATERIAL_BLOCK_FLOATS, TABLE_WIDTH
+    from btf_addon.core.codecs.packed import TABLE_WIDTH
+    from btf_addon.core.mapping import MATERIAL_BLOCK_FLOATS
     from btf_addon.gl.renderer import GLSLRenderer
 
     btf = MLVQBTF.from_directory(shared_material("wallpaper"))

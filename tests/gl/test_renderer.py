@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.envmap import Environment, VirtualLights
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.sampling.envmap import Environment, VirtualLights
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from helpers import read_png
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.envmap import Environment
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.errors import BTFError
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.formats.imageio import read_exr
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.render.headsets import profile
 from btf_addon.render.settings import Lighting, RenderSettings
 from btf_addon.scene.lights import PointLight
@@ -236,7 +236,7 @@ def test_side_by_side_file_is_left_then_right(small_capture, tmp_path):
 def test_per_eye_files_and_png(small_capture, tmp_path):
     """Per-eye EXRs hold one eye each; per-eye PNGs are the eyes through core/imageio's sRGB
     curve, byte for byte."""
-    from btf_addon.core.imageio import srgb8_from_linear
+    from btf_addon.core.formats.imageio import srgb8_from_linear
     from btf_addon.gl.stereo_capture import write_stereo
 
     written = write_stereo(small_capture, tmp_path / "pair.exr", "per-eye")

@@ -6,11 +6,11 @@ import logging
 
 import numpy as np
 
-from btf_addon.core.analytic import LambertianBTF
-from btf_addon.core.envmap import Environment
-from btf_addon.core.gpu_fit import fit_for_gpu
+from btf_addon.core.codecs.analytic import LambertianBTF
+from btf_addon.core.codecs.gpu_fit import fit_for_gpu
+from btf_addon.core.codecs.svd_build import factorise
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.svd_build import factorise
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 

@@ -7,12 +7,12 @@ import pytest
 from helpers import building_device_indices, random_queries, shared_material
 
 from btf_addon.cl import programs
-from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from btf_addon.core.dense import tabulate
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.microgeometry import woven
+from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.errors import UnsupportedBTFError
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.microgeometry import woven
-from btf_addon.core.mlvq import MLVQBTF
 
 DEVICES = building_device_indices()
 pytestmark = pytest.mark.opencl

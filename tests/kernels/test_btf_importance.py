@@ -1,4 +1,5 @@
-"""Importance sampling of measured BTFs (core/btf_importance.py, kernels/include/btf_sampling.h):
+"""Importance sampling of measured BTFs (core/sampling/btf_importance.py,
+kernels/include/btf_sampling.h):
 the OpenCL sampler against its own pdf (Pearson χ²), the pdf's normalisation and support, and
 the Sampled render's mean unchanged by it."""
 
@@ -11,11 +12,11 @@ import pytest
 from helpers import shared_material
 from scipy.stats import chi2
 
-from btf_addon.core import btf_importance
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.envmap import Environment
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.packed import INT_SLOT, pack
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.packed import INT_SLOT, pack
+from btf_addon.core.sampling import btf_importance
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 

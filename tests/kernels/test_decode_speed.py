@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from helpers import random_queries, shared_material
 
-from btf_addon.core.dense import DenseBTF
+from btf_addon.core.codecs.dense import DenseBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.packed import INT_SLOT, pack
 from btf_addon.core.grid import UBO2003
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.packed import INT_SLOT, pack
 
 pytestmark = pytest.mark.opencl
 

@@ -76,8 +76,8 @@ def test_ties_go_to_the_lowest_index_and_negative_rows_to_zero(assign, rng):
 def test_encoding_with_the_opencl_step_gives_the_numpy_material(assign):
     """The whole encoder with the device step: the same tables as numpy's on a 4×4 rough GGX
     tinted per texel (as tests/core/test_encoder_mlvq.py's), whose codewords are not near-tied."""
-    from btf_addon.core.analytic import GGXBTF
-    from btf_addon.core.dense import DenseBTF, tabulate
+    from btf_addon.core.codecs.analytic import GGXBTF
+    from btf_addon.core.codecs.dense import DenseBTF, tabulate
     from btf_addon.core.encoders.mlvq import MLVQSettings, encode_mlvq
 
     base = tabulate(GGXBTF(albedo=(0.55, 0.35, 0.2), roughness=0.6), width=1, height=1).data

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from helpers import count_periods, shared_material, stripe_btf
 
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.codecs.packed import pack
 from btf_addon.core.mapping import mapped_evaluate
-from btf_addon.core.mlvq import MLVQBTF
-from btf_addon.core.packed import pack
 from btf_addon.scene.scene import Material, Mesh
 
 pytestmark = pytest.mark.opencl
@@ -111,7 +111,7 @@ def test_opencl_real_world_size_shows_the_expected_number_of_tiles(cl_context, m
     """F12's side of tests/gl/test_mapping_render.py's tile count: a 0.5 m plane, 25 mm tile,
     UVs repeating 3× (real-world size must ignore them) → 20 stripe periods across."""
     from btf_addon.cl.renderer import CLRenderer
-    from btf_addon.core.envmap import Environment, VirtualLights
+    from btf_addon.core.sampling.envmap import Environment, VirtualLights
     from btf_addon.scene.primitives import plane
     from btf_addon.scene.scene import Camera, Scene, look_at
 

@@ -8,7 +8,7 @@ import pytest
 
 from btf_addon.cl import programs
 from btf_addon.cl.context import OpenCLUnavailableError
-from btf_addon.core import packed
+from btf_addon.core.codecs import packed
 
 pytestmark = pytest.mark.opencl
 
@@ -22,7 +22,7 @@ def fresh_cache(tmp_path, monkeypatch):
 
 def test_kernels_see_the_python_layout(cl_context, tmp_path, fresh_cache):
     """A kernel that includes btf_packed.h (as every real one does) writes the value of each
-    layout macro; they must equal core/packed.py's definition."""
+    layout macro; they must equal core/codecs/packed.py's definition."""
     import pyopencl as cl
 
     names = list(packed.defines())

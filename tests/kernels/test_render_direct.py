@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from helpers import shared_material
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from btf_addon.core.envmap import Environment, VirtualLights
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.sampling.envmap import Environment, VirtualLights
 from btf_addon.scene.analysis import analyse
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from helpers import shared_material
 
-from btf_addon.core.envmap import Environment
-from btf_addon.core.mlvq import MLVQBTF
+from btf_addon.core.codecs.mlvq import MLVQBTF
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.analysis import SceneFeatures, analyse
 from btf_addon.scene.lights import PointLight, SunLight
 from btf_addon.scene.primitives import plane, uv_sphere

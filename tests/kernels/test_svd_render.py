@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from svd_cases import svd_cases
 
-from btf_addon.core.analytic import GGXBTF
-from btf_addon.core.dense import tabulate
-from btf_addon.core.envmap import Environment
+from btf_addon.core.codecs.analytic import GGXBTF
+from btf_addon.core.codecs.dense import tabulate
+from btf_addon.core.codecs.svd_build import factorise
 from btf_addon.core.grid import uniform_ring_grid
-from btf_addon.core.svd_build import factorise
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
@@ -54,7 +54,7 @@ def test_an_svd_btf_over_the_device_limit_traces_at_reduced_resolution(
     note for the user (as the viewport does), instead of failing into the GLSL fallback with
     "OpenCL unavailable". The image equals rendering the reduced copy itself."""
     from btf_addon.cl import renderer as renderer_module
-    from btf_addon.core.gpu_fit import fit_for_gpu
+    from btf_addon.core.codecs.gpu_fit import fit_for_gpu
 
     grid = uniform_ring_grid(30.0)
     data = rng.uniform(0.1, 0.9, (grid.size, grid.size, 32, 32, 3)).astype(np.float32)

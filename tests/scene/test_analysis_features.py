@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
-from btf_addon.core.envmap import Environment
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.scene.analysis import ALL_CODECS, SceneFeatures, analyse
 from btf_addon.scene.lights import AreaLight, PointLight, SunLight
 from btf_addon.scene.primitives import uv_sphere

@@ -13,9 +13,9 @@ import threading
 import numpy as np
 import pytest
 
-from btf_addon.core.analytic import GGXBTF, LambertianBTF
+from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.colour import srgb_encode
-from btf_addon.core.envmap import Environment
+from btf_addon.core.sampling.envmap import Environment
 from btf_addon.render.headsets import EyeFov, projection_from_fov
 from btf_addon.render.settings import RenderSettings
 from btf_addon.scene.primitives import plane, uv_sphere
@@ -233,7 +233,7 @@ def read_eye(json_path):
     """A capture's JSON (xr/capture.py) and its image ((h, w, 3) float32, row 0 at the top)."""
     import json
 
-    from btf_addon.core.imageio import read_exr
+    from btf_addon.core.formats.imageio import read_exr
 
     meta = json.loads(json_path.read_text())
     return meta, read_exr(json_path.parent / meta["image"])

@@ -11,7 +11,7 @@ import pytest
 from helpers import cli_env, make_blend, run_cli
 
 from btf_addon.core.colour import srgb_encode
-from btf_addon.core.imageio import read_exr
+from btf_addon.core.formats.imageio import read_exr
 
 # sRGB 8-bit quantisation of the submitted image (tests/xr/test_bridge.py says why).
 SRGB_TOLERANCE = 1.0 / 255 + 1e-6

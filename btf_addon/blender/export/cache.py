@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from ...core.envmap import Environment
+from ...core.sampling.envmap import Environment
 from ...scene.scene import Mesh
 
 

@@ -9,8 +9,8 @@ from typing import NamedTuple
 
 import bpy
 
-from ...core.codecs import load_btf
 from ...core.errors import BTFError
+from ...core.formats.load import load_btf
 from ...core.model import BTF
 from ...scene.scene import Material
 from .surface_shaders import analytic_btf

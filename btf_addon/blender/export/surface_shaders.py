@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.analytic import GGXBTF, LambertianBTF, PrincipledBTF
+from ...core.codecs.analytic import GGXBTF, LambertianBTF, PrincipledBTF
 from ...core.model import BTF
 
 #: Principled BSDF inputs → PrincipledBTF parameters (inputs Blender versions lack are skipped).

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...core.colour import srgb_decode
-from ...core.envmap import Environment
+from ...core.sampling.envmap import Environment
 from .. import compat
 
 BLACK = (0.0, 0.0, 0.0)

@@ -20,13 +20,13 @@ from bpy.props import EnumProperty, IntProperty, StringProperty
 from bpy.types import Operator
 
 from ...cl.encoder_assign import opencl_assign_or_none
-from ...core.codecs import load_btf
-from ...core.container import SUFFIX, write_container
 from ...core.encoders import metrics
 from ...core.encoders.mlvq import MLVQSettings, encode_mlvq
 from ...core.encoders.svd import SVDSettings, encode_svd
 from ...core.encoders.svd import sizes as svd_sizes
 from ...core.errors import BTFError
+from ...core.formats.container import SUFFIX, write_container
+from ...core.formats.load import load_btf
 from ..background_job import BackgroundJobModal
 
 log = logging.getLogger(__name__)

@@ -20,10 +20,10 @@ from bpy.props import BoolProperty, FloatProperty, StringProperty
 from bpy.types import Operator
 from bpy_extras.io_utils import ImportHelper
 
-from ...core.codecs import load_btf
+from ...core.codecs.packed import pack
 from ...core.errors import BTFError
+from ...core.formats.load import load_btf
 from ...core.model import BTF
-from ...core.packed import pack
 from ..export.meshes import GEOMETRY_OBJECT_TYPES
 from ..paths import source_for, source_hint
 

@@ -4,8 +4,10 @@ start/stop operator. Without XR in the Blender build only an explanatory panel r
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, PointerProperty
 from bpy.types import Operator, Panel, PropertyGroup
+
+from .headset_settings import HeadsetProperties, draw_headset_properties
 
 #: What the panel says in a Blender built without OpenXR (bpy.app.build_options.xr_openxr).
 NO_XR_LINES = (
@@ -15,49 +17,10 @@ NO_XR_LINES = (
 )
 
 
-class BTFVRSettings(PropertyGroup):
-    lights_mode: EnumProperty(
-        name="Lights per Frame",
-        items=(
-            ("BUDGET", "Frame Budget", "As many lights per frame as fit the frame-time budget"),
-            ("FIXED", "Fixed", "The same number of lights every frame"),
-        ),
-        default="BUDGET",
-    )
-    frame_budget_ms: FloatProperty(
-        name="Frame Budget",
-        default=11.0,
-        min=1.0,
-        max=100.0,
-        description="Milliseconds per frame (11 ms holds 90 Hz); lights per frame adapt to it",
-    )
-    lights_per_frame: IntProperty(
-        name="Lights per Frame",
-        default=5,
-        min=1,
-        soft_max=64,
-        description="Virtual lights added per frame while the head moves",
-    )
-    lights_total: IntProperty(
-        name="Total Lights",
-        default=200,
-        min=1,
-        soft_max=4096,
-        max=65536,
-        description="Virtual lights accumulated while the head is still",
-    )
-    exposure: FloatProperty(
-        name="Exposure",
-        default=0.0,
-        soft_min=-10.0,
-        soft_max=10.0,
-        description="Brightness in the headset, in stops",
-    )
-    show_hud: BoolProperty(
-        name="HUD",
-        default=True,
-        description="Material, lights and frame time on a panel floating below the view",
-    )
+class BTFVRSettings(HeadsetProperties, PropertyGroup):
+    """The VR session's settings: the headset's (headset_settings.py, shared with the XTAL
+    bridge) and the session's own."""
+
     controller_actions: EnumProperty(
         name="Controllers",
         items=(
@@ -137,14 +100,7 @@ class VIEW3D_PT_btf_vr(Panel):
         )
         col = layout.column()
         col.use_property_split = True
-        col.prop(settings, "lights_mode")
-        if settings.lights_mode == "BUDGET":
-            col.prop(settings, "frame_budget_ms", text="Budget (ms)")
-        else:
-            col.prop(settings, "lights_per_frame")
-        col.prop(settings, "lights_total")
-        col.prop(settings, "exposure")
-        col.prop(settings, "show_hud")
+        draw_headset_properties(col, settings)
         col.prop(settings, "show_world")
         col.prop(settings, "controller_actions")
         preview = xr.preview()

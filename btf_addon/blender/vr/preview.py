@@ -7,7 +7,8 @@ and its matrices loaded in ``gpu.matrix`` (depth test off), and without a contex
 is unusable there, so everything is reached through ``bpy.data`` (the session's window, scene,
 view layer and ``window_manager.xr_session_state``) or given to ``XRPreview`` by the caller.
 
-Per eye (``render/stereo.py`` says which eye from the matrices and the viewer pose):
+Per eye (``render/stereo.py`` says which eye from the matrices and the viewer pose) a
+``gl/eye.HeadsetEye``, the same object the XTAL bridge keeps per eye:
 - an accumulation of its own (``gl/drawer.ViewAccumulation``) over the one scene drawer;
 - K lights per frame, K from a frame-time budget (``render/frame_budget.FrameBudget``: the
   interval between successive callbacks of the same eye) or fixed; restarted when the eye's
@@ -29,7 +30,7 @@ from __future__ import annotations
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import bpy
 import gpu
@@ -37,64 +38,27 @@ import numpy as np
 
 from ...core.errors import BTFMaterialsError
 from ...gl.device import DrawState
-from ...gl.drawer import ProgressiveDrawer, ViewAccumulation
-from ...gl.eye import EyeAccumulation
-from ...gl.hud import HudDrawer
-from ...render.frame_budget import FrameBudget
-from ...render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
+from ...gl.drawer import ProgressiveDrawer
+from ...gl.eye import HeadsetEye, HeadsetSettings
+from ...render.frame_budget import DEFAULT_BUDGET_S
 from ...render.stereo import EyeId, EyeIdentifier
 from ..export import ExportCache, changed_ids, export_scene
 from ..gpu_draw import BlenderGPUDevice
-from ..sync import render_settings
+from ..sync import render_settings, vr_settings
 from ..wiimote import overlay as wiimote_overlay
 
 # Into the eye's framebuffer: no depth written (Blender's depth there is its own), opaque or
 # premultiplied "over" Blender's image when the World is left out.
 EYE_OPAQUE = DrawState(depth_write=False)
 EYE_OVER = DrawState(depth_write=False, blend="OVER")
-HUD_REFRESH_S = 0.25  # the HUD's frame time changes every frame; re-rasterise 4× a second
 
 
 @dataclass(frozen=True)
-class VRSettings:
-    """What the VR panel sets (``scene.btf_vr``), as plain values."""
+class VRSettings(HeadsetSettings):
+    """What the VR panel sets (``scene.btf_vr``; blender/sync.py ``vr_settings``), as plain
+    values: the headset's, as the XTAL bridge's, and ``show_world``."""
 
-    use_budget: bool = True  # K from the frame budget; else ``lights_per_frame``
-    frame_budget_ms: float = 11.0  # 90 Hz
-    lights_per_frame: int = 5
-    lights_total: int = 200
-    exposure: float = 0.0  # stops
-    show_hud: bool = True
     show_world: bool = True
-
-    @classmethod
-    def from_properties(cls, props) -> VRSettings:
-        return cls(
-            use_budget=props.lights_mode == "BUDGET",
-            frame_budget_ms=props.frame_budget_ms,
-            lights_per_frame=props.lights_per_frame,
-            lights_total=props.lights_total,
-            exposure=props.exposure,
-            show_hud=props.show_hud,
-            show_world=props.show_world,
-        )
-
-
-@dataclass
-class EyeState:
-    budget: FrameBudget
-    image: EyeAccumulation = field(default_factory=EyeAccumulation)
-    drawn: int = 0  # lights added in this eye's previous frame
-    frames: int = 0
-    hud_lines: list[str] = field(default_factory=list)
-    hud_image: np.ndarray | None = None
-    hud: HudDrawer | None = None
-    hud_time: float = -1.0
-    gaze_material: str = ""
-
-    @property
-    def view(self) -> ViewAccumulation | None:
-        return self.image.view
 
 
 @dataclass(frozen=True)
@@ -116,7 +80,8 @@ class XRPreview:
         self.drawer: ProgressiveDrawer | None = None
         self.cache = ExportCache()
         self.scene_dirty = True
-        self.eyes: dict[str, EyeState] = {}
+        self.eyes: dict[str, HeadsetEye] = {}
+        self.gaze_materials: dict[str, str] = {}  # per eye: the BTF material straight ahead
         self.identifier = EyeIdentifier()
         self.error = ""  # why nothing is drawn (the panel shows it)
         self.messages: list[str] = []  # the export's warnings (a missing BTF drawn plain, …)
@@ -130,10 +95,9 @@ class XRPreview:
 
     def release(self) -> None:
         for eye in self.eyes.values():
-            eye.image.release()
-            if eye.hud is not None:
-                eye.hud.release()
+            eye.release()
         self.eyes.clear()
+        self.gaze_materials.clear()
         if self.drawer is not None:
             self.drawer.release()
         self.drawer = None
@@ -144,32 +108,30 @@ class XRPreview:
         """Draw the scene for one eye into the bound framebuffer (``size``: its pixels)."""
         depsgraph = self.source.depsgraph()
         scene = depsgraph.scene
-        vr = VRSettings.from_properties(scene.btf_vr)
+        vr = vr_settings(scene)
         settings = replace(render_settings(scene), progressive=True)
         settings = replace(settings, lights_total=vr.lights_total)
         clip_from_view = np.asarray(clip_from_view, dtype=np.float64)
         view_from_world = np.asarray(view_from_world, dtype=np.float64)
         eye_id = self.identifier.identify(view_from_world, clip_from_view, self._viewer())
         self.last_eye = eye_id
+        budget_s = vr.budget_s or DEFAULT_BUDGET_S  # Blender never says the display period
         eye = self.eyes.get(eye_id.key)
         if eye is None:
-            budget = FrameBudget(vr.frame_budget_ms / 1e3, clock=self.clock)
-            eye = self.eyes[eye_id.key] = EyeState(budget)
-        eye.budget.budget_s = vr.frame_budget_ms / 1e3
-        k = eye.budget.frame(eye.drawn) if vr.use_budget else vr.lights_per_frame
-        eye.drawn = 0
+            eye = self.eyes[eye_id.key] = HeadsetEye(self.device, budget_s, self.clock)
+        k = eye.lights_this_frame(vr.lights_per_frame, budget_s)
 
         framebuffer, viewport = gpu.state.active_framebuffer_get(), gpu.state.viewport_get()
         drawer = self._drawer(depsgraph, size)
         if drawer is None:
             return
-        eye.drawn, restarted = eye.image.advance(
+        _, restarted = eye.advance(
             drawer, size, settings, clip_from_view, view_from_world, k, not vr.show_world
         )
         if restarted:
-            eye.gaze_material = self._gaze_material(depsgraph, np.linalg.inv(view_from_world))
+            gaze = self._gaze_material(depsgraph, np.linalg.inv(view_from_world))
+            self.gaze_materials[eye_id.key] = gaze
         view = eye.view
-        eye.frames += 1
 
         # Making GPU objects (the first frame's offscreens, textures) may leave another
         # framebuffer bound and the viewport changed: draw into the eye's explicitly.
@@ -178,7 +140,14 @@ class XRPreview:
             state = EYE_OPAQUE if vr.show_world else EYE_OVER
             drawer.draw_resolved(view, vr.exposure, not vr.show_world, state)
             if vr.show_hud:
-                self._draw_hud(eye, eye_id, clip_from_view, view, vr)
+                help_rows = wiimote_overlay.current_help() or ()
+                eye.draw_hud(
+                    clip_from_view,
+                    eye_id.offset,
+                    self.gaze_materials.get(eye_id.key, ""),
+                    [f"{a}: {b}" for a, b in help_rows],
+                    self._navigation_scale(),
+                )
             gpu.state.blend_set("NONE")
             gpu.state.depth_test_set("NONE")
             gpu.state.depth_mask_set(True)
@@ -216,29 +185,6 @@ class XRPreview:
             if material is not None and material.btf.enabled:
                 return material.name
         return ""
-
-    def _draw_hud(self, eye: EyeState, eye_id: EyeId, clip_from_view, view, vr) -> None:
-        now = self.clock()
-        if now - eye.hud_time >= HUD_REFRESH_S or eye.view.state.converged:
-            help_rows = wiimote_overlay.current_help()
-            lines = status_lines(
-                eye.gaze_material,
-                view.state.done,
-                view.state.total,
-                eye.budget.status() if vr.use_budget else f"{vr.lights_per_frame} lights/frame",
-            )
-            lines += [f"{a}: {b}"[:MAX_CHARS] for a, b in help_rows or ()]
-            if lines[:MAX_LINES] != eye.hud_lines:
-                eye.hud_lines = lines[:MAX_LINES]
-                eye.hud_image = raster_text(eye.hud_lines)
-            eye.hud_time = now
-        if eye.hud is None:  # one per eye: the eyes' texts differ (their own lights, times)
-            eye.hud = HudDrawer(self.device)
-        image = eye.hud_image
-        eye.hud.set_image(image)  # uploads only when this eye's text changed
-        scale = self._navigation_scale()
-        corners = hud_quad(eye_id.offset / scale, image.shape[1] / image.shape[0]) * scale
-        eye.hud.draw(clip_from_view, corners)
 
     def _navigation_scale(self) -> float:
         state = self.source.session_state()

@@ -19,7 +19,7 @@ import traceback
 from collections.abc import Callable
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import EnumProperty, FloatProperty, PointerProperty
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ...controllers.actions import ACTION_LABELS
@@ -28,12 +28,16 @@ from ...render.headsets import PROFILES
 from ..export import ExportCache, changed_ids, export_scene
 from ..sync import bridge_settings, render_settings
 from ..wiimote.edits import EditContext, EditSkipped, apply_edit
+from .headset_settings import HeadsetProperties, draw_headset_properties
 
 # Export size: the bridge draws at the headset's eye size; the exported camera is unused.
 EXPORT_SIZE = (64, 64)
 
 
-class BTFBridgeSettings(PropertyGroup):
+class BTFBridgeSettings(HeadsetProperties, PropertyGroup):
+    """The bridge's settings: the headset's (headset_settings.py, shared with Blender's VR
+    session) and the bridge's own."""
+
     profile: EnumProperty(
         name="Headset",
         items=[(key, p.label, p.source) for key, p in PROFILES.items()],
@@ -48,17 +52,6 @@ class BTFBridgeSettings(PropertyGroup):
         max=2.0,
         description="Eye images at this fraction of the runtime's recommended size",
     )
-    frame_budget_ms: FloatProperty(
-        name="Frame Budget",
-        default=0.0,
-        min=0.0,
-        max=100.0,
-        description="Milliseconds per frame that lights per frame adapt to; 0 takes the "
-        "runtime's display period",
-    )
-    lights_total: IntProperty(name="Total Lights", default=200, min=1, max=65536)
-    exposure: FloatProperty(name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0)
-    show_hud: BoolProperty(name="HUD", default=True)
 
     @classmethod
     def register(cls) -> None:
@@ -295,10 +288,9 @@ class VIEW3D_PT_btf_xtal_bridge(Panel):
         col.use_property_split = True
         col.enabled = running is None
         # Taken when the bridge starts (stop and start again to change them).
-        for name in ("profile", "resolution_scale", "frame_budget_ms", "lights_total"):
-            col.prop(settings, name)
-        col.prop(settings, "exposure")
-        col.prop(settings, "show_hud")
+        col.prop(settings, "profile")
+        col.prop(settings, "resolution_scale")
+        draw_headset_properties(col, settings)
         if running is not None:
             box = layout.box()
             box.label(text=running.status_text().replace(" · Esc: stop", ""))

@@ -19,12 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..codecs.mlvq import FLOAT_TABLES, LDR_VALUE_SCALE
 from ..grid import UBO2003, RingGrid
-from ..mlvq import LDR_VALUE_SCALE
 from ..model import BTF
 from ..ssim import ssim_map
-
-_FLOAT_TABLES = ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale")
 
 
 @dataclass
@@ -49,7 +47,7 @@ def sizes(btf: BTF, scale_bits: int) -> SizeReport:
     stored = sum(int(a.nbytes) for a in tables.values())
     bits = 0
     for name, a in tables.items():
-        if name in _FLOAT_TABLES:
+        if name in FLOAT_TABLES:
             bits += a.size * (scale_bits or 32)
         else:
             bits += a.size * max(1, math.ceil(math.log2(int(a.max()) + 1)))

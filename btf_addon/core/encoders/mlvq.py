@@ -1,4 +1,4 @@
-"""MLVQ encoder: any BTF → the multi-level vector quantisation that ``core/mlvq.py`` decodes.
+"""MLVQ encoder: any BTF → the multi-level vector quantisation that ``core/codecs/mlvq.py`` decodes.
 
 Resampling (the parameterisation grid). The input is evaluated at exactly the samples the
 decoder interpolates between, so a sample decodes to the stored value:
@@ -43,9 +43,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..codecs.mlvq import LDR_VALUE_SCALE, MLVQBTF, MLVQParams
 from ..colour import ycbcr_to_rgb
 from ..errors import BTFFormatError
-from ..mlvq import LDR_VALUE_SCALE, MLVQBTF, MLVQParams
 from ..model import BTF
 from .kmeans import Assign, kmeans, nearest
 

@@ -1,4 +1,5 @@
-"""SVD encoder: any BTF → the ``svd`` codec (core/svd.py), a truncated SVD per colour channel.
+"""SVD encoder: any BTF → the ``svd`` codec (core/codecs/svd.py), a truncated SVD per colour
+channel.
 
 Input samples (the "measured directions"). Per channel c the input is a matrix M_c with one
 row per direction pair p = view·n_lights + light (ring order, as the codec) and one column per
@@ -46,19 +47,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..dense import DenseBTF
+from ..codecs.dense import DenseBTF
+from ..codecs.mlvq import MLVQBTF
+from ..codecs.svd import SVDBTF, SVDParams
+from ..codecs.svd_build import _RGB_TO_YUV
 from ..errors import BTFFormatError
 from ..grid import UBO2003, RingGrid
-from ..mlvq import MLVQBTF
 from ..model import BTF
-from ..svd import SVDBTF, SVDParams
-from ..svd_build import _RGB_TO_YUV
 from .metrics import SizeReport
 
 #: ``progress(fraction 0..1, what)``; may raise (KeyboardInterrupt, a cancel exception) to stop.
 Progress = Callable[[float, str], None]
 
-#: Colour space name → the codec's colour model (core/svd.py COLOUR_MODELS).
+#: Colour space name → the codec's colour model (core/codecs/svd.py COLOUR_MODELS).
 COLOUR_SPACES = {"rgb": 0, "yuv": 1}
 _TO_CHANNELS = {0: np.eye(3), 1: _RGB_TO_YUV}
 #: Components with s ≤ this × the largest s of the channel are stored as zeros (their U = M·V/S

@@ -1,6 +1,6 @@
 """A small line-plot raster in numpy: axes with linear or log scales, tick labels, axis labels,
 a title, a legend, lines with markers, reference lines. Text is the HUD's bitmap font
-(render/hud.py ``raster_text``); files are written by core/imageio.py's PNG writer.
+(render/hud.py ``raster_text``); files are written by core/formats/imageio.py's PNG writer.
 
 Why not matplotlib: the plots are needed inside Blender (the render-settings panel shows the
 curve), where matplotlib is not available and bundling it (with its C extensions, per platform

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ...core.fileio import atomic_write
-from ...core.imageio import srgb8_from_linear, write_png
+from ...core.formats.imageio import srgb8_from_linear, write_png
 from .ladder import (
     Estimate,
     Role,

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .colour import srgb_encode
-from .errors import BTFFormatError
-from .fileio import atomic_write, atomic_write_path
+from ..colour import srgb_encode
+from ..errors import BTFFormatError
+from ..fileio import atomic_write, atomic_write_path
 
 
 def write_exr(path: str | Path, rgb: np.ndarray) -> Path:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .model import BTF, BTFMeta, Queries
+from ..model import BTF, BTFMeta, Queries
 from .packed import TableWriter, register_codec
 
 #: Below this roughness the GGX lobe is a near-delta that no tabulation or sampler resolves.
@@ -206,7 +206,8 @@ class PrincipledBTF(BTF):
         )
 
 
-# --- GPU tables (core/packed.py): parameters in the float header, evaluated by btf_evaluate in
+# --- GPU tables (core/codecs/packed.py): parameters in the float header, evaluated by btf_evaluate
+# in
 # kernels/include/btf_packed.h and shaders/btf_eval_lib.glsl --------------------------------
 def _pack_lambertian(btf: LambertianBTF, out: TableWriter) -> None:
     out.set(albedo=btf.albedo)

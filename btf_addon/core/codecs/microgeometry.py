@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .model import BTF, BTFMeta, Queries, tile_size_from_params, tile_size_param, wrap_texel
+from ..model import BTF, BTFMeta, Queries, tile_size_from_params, tile_size_param, wrap_texel
 from .packed import register_codec
 
 #: Horizon-map azimuth bins; the soft shadow edge width in tan(elevation).

@@ -1,4 +1,5 @@
-"""Writer for UBO2014 DFMF ``.btf`` files (the layout in core/ubo2014.py and docs/formats.md).
+"""Writer for UBO2014 DFMF ``.btf`` files (the layout in core/formats/ubo2014.py and
+docs/formats.md).
 
 Writes meta version 4 (cosine flag, empty XML, three channel names), the direction sampling of
 the svd BTF's ring grids in ring order (angles in radians), no rotations, and each channel's
@@ -13,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BTFError
-from .fileio import atomic_write
-from .svd import SVDBTF
+from ..codecs.svd import SVDBTF
+from ..errors import BTFError
+from ..fileio import atomic_write
 from .ubo2014 import SIGNATURE
 
 _CHANNEL_NAMES = {

@@ -17,7 +17,7 @@ Rows are direction pairs, view-major (row = view·nL + light); columns are texel
 (btflib reshapes ``U·SVᵀ`` to (nL, nV, width, height) column-major), y from the image's top
 (``load_ubo2014`` flips it: texel row 0 is v = 0 here, as for every codec). Directions must
 group into rings of equal θ (any distinct azimuths): the rows are reordered into ring order
-and the azimuths kept per sample for the svd codec's interpolation (core/svd.py).
+and the azimuths kept per sample for the svd codec's interpolation (core/codecs/svd.py).
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BTFFormatError, UnsupportedBTFError
-from .grid import RingGrid
-from .svd import SVDBTF, SVDParams
+from ..codecs.svd import SVDBTF, SVDParams
+from ..errors import BTFFormatError, UnsupportedBTFError
+from ..grid import RingGrid
 
 SIGNATURE = b"!DFMF08FCR"
 #: Bonn's other signatures: recognised so that the error can name them.

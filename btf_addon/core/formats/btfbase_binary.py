@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .btfbase_files import MaterialInfo
-from .errors import BTFFormatError, UnsupportedBTFError
-from .mlvq import MLVQBTF, MLVQParams
+from ..codecs.btfbase_files import MaterialInfo
+from ..codecs.mlvq import MLVQBTF, MLVQParams
+from ..errors import BTFFormatError, UnsupportedBTFError
 
 MAGIC = b"4627"
 
@@ -216,7 +216,7 @@ def _float_table(data, pos, cols, path, table) -> tuple[np.ndarray, int]:
 
 def read_binary(path: str | Path) -> tuple[BinaryHeader, dict[str, np.ndarray]]:
     """``binary.btf`` → its header and the 13 MLVQ tables (int32 indices, float32 values),
-    named as ``core.mlvq.TABLE_NAMES``."""
+    named as ``core.codecs.mlvq.TABLE_NAMES``."""
     path = Path(path)
     try:
         data = path.read_bytes()

@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BTFFormatError, UnsupportedBTFError
-from .fileio import atomic_write
-from .model import BTF
+from ..errors import BTFFormatError, UnsupportedBTFError
+from ..fileio import atomic_write
+from ..model import BTF
 
 MAGIC = b"BTFMAT\r\n"
 END_MAGIC = b"BTFEND\r\n"
@@ -250,7 +250,7 @@ def read_container(path: str | Path) -> BTF:
         ).reshape(e["shape"])
         for e in header["arrays"]
     }
-    from .codecs import codec_class  # here: codecs imports this module for saving
+    from .load import codec_class  # here: codecs imports this module for saving
 
     try:
         return codec_class(header["codec"]).from_params(header["params"], arrays)

@@ -11,7 +11,7 @@ and the colour transform turns (y_0, y_1, y_2) into RGB (``colour_transform``: a
 view-major: p = view·n_lights + light, with both direction sets on a ``RingGrid`` whose samples
 may carry their own azimuths (``SVDParams.view_phi``/``light_phi``: rotated or uneven rings).
 
-Between the measured directions the codec interpolates like the dense codec (core/dense.py):
+Between the measured directions the codec interpolates like the dense codec (core/codecs/dense.py):
 ring-bilinear in the view, and for each of its (up to) four view samples ring-bilinear in the
 light at the same azimuth relative to the view — at most 16 pairs, weights ≥ 0 summing to 1,
 continuous in both directions and exact at the samples. Each pair is decoded and transformed
@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BTFFormatError, UnsupportedBTFError
-from .grid import RingGrid
-from .model import BTF, BTFMeta, Queries, wrap_texel
+from ..errors import BTFFormatError, UnsupportedBTFError
+from ..grid import RingGrid
+from ..model import BTF, BTFMeta, Queries, wrap_texel
 from .packed import TableWriter, register_codec
 
 #: UBO2014 colour models (btflib's ``undecorrelate``) → name; the ones evaluated here.
@@ -337,7 +337,7 @@ def ring_weights(
     return idx, w
 
 
-# --- GPU tables (core/packed.py; read by svd_evaluate in kernels/include/btf_svd.h and
+# --- GPU tables (core/codecs/packed.py; read by svd_evaluate in kernels/include/btf_svd.h and
 # shaders/btf_svd_lib.glsl) -------------------------------------------------------------------
 def _pack(btf: SVDBTF, out: TableWriter) -> None:
     p = btf.p

@@ -1,5 +1,5 @@
-"""Building svd BTFs (core/svd.py): the truncated per-channel SVD of measured values, and the
-box-filtered reduced-resolution copy the GPU fallback (core/gpu_fit.py) draws."""
+"""Building svd BTFs (core/codecs/svd.py): the truncated per-channel SVD of measured values, and the
+box-filtered reduced-resolution copy the GPU fallback (core/codecs/gpu_fit.py) draws."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import UnsupportedBTFError
-from .grid import UBO2003, RingGrid
-from .model import box_reduce
+from ..errors import UnsupportedBTFError
+from ..grid import UBO2003, RingGrid
+from ..model import box_reduce
 from .svd import _YUV_TO_RGB, SVDBTF, SVDParams
 
 _RGB_TO_YUV = np.linalg.inv(_YUV_TO_RGB)

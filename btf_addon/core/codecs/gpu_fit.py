@@ -1,6 +1,7 @@
 """Will a BTF's packed tables fit the GPU? If not, a reduced-resolution copy that does.
 
-The packed float stream (core/packed.py) becomes one R32F texture TABLE_WIDTH texels wide, and
+The packed float stream (core/codecs/packed.py) becomes one R32F texture TABLE_WIDTH texels wide,
+and
 the GLSL back end addresses it with offsets stored exactly as float32 integers. So a BTF fits
 when its stream has fewer than 2^24 floats (exact offsets), at most ``max_texture_size`` rows
 and at most ``max_bytes`` bytes. Large tabulated BTFs — an svd BTF at 400² and high rank, a
@@ -13,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UnsupportedBTFError
+from ..model import BTF, DelegatingBTF, box_reduce
 from .dense import DenseBTF
-from .errors import UnsupportedBTFError
-from .model import BTF, DelegatingBTF, box_reduce
 from .packed import MAX_EXACT_INT, TABLE_WIDTH
 from .svd import SVDBTF
 from .svd_build import reduce_resolution

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BTFFormatError
+from ..errors import BTFFormatError
 
 MAX_SIDE = 1 << 15
 

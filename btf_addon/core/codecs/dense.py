@@ -11,9 +11,17 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BTFFormatError
-from .grid import UBO2003, RingGrid
-from .model import BTF, CHUNK, BTFMeta, Queries, tile_size_from_params, tile_size_param, wrap_texel
+from ..errors import BTFFormatError
+from ..grid import UBO2003, RingGrid
+from ..model import (
+    BTF,
+    CHUNK,
+    BTFMeta,
+    Queries,
+    tile_size_from_params,
+    tile_size_param,
+    wrap_texel,
+)
 from .packed import TableWriter, register_codec
 
 
@@ -129,7 +137,7 @@ def tabulate(
 
 
 def _pack(btf: DenseBTF, out: TableWriter) -> None:
-    """GPU tables (core/packed.py; read by dense_evaluate in kernels/include/btf_packed.h and
+    """GPU tables (core/codecs/packed.py; read by dense_evaluate in kernels/include/btf_packed.h and
     shaders/btf_dense_lib.glsl)."""
     out.set(width=btf.meta.width, height=btf.meta.height, n_lights=btf.light_grid.size)
     out.set(f_data=out.float_table(btf.data))

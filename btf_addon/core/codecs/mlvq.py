@@ -23,11 +23,10 @@ from typing import Any
 
 import numpy as np
 
+from ..colour import logluv_to_rgb, ycbcr_to_rgb
+from ..errors import BTFFormatError
+from ..model import BTF, BTFMeta, Queries
 from . import btfbase_files as files
-from .colour import logluv_to_rgb, ycbcr_to_rgb
-from .errors import BTFFormatError
-from .model import BTF, BTFMeta, Queries
-from .packed import TableWriter, register_codec
 
 #: Decoded 8-bit LDR values are reflectance factors × 255 (white standard = 255), so
 #: value = raw / 255 / π = apparent BRDF × cos θi. See docs/conventions.md.
@@ -50,6 +49,19 @@ TABLE_NAMES = (
     "pdf6_slices",
     "pdf6_scale",
 )
+
+#: Which tables hold indices and which hold values (float32 on the device; the encoders'
+#: report counts their bits by this split too).
+INT_TABLES = (
+    "index_ab",
+    "pdf2_colours",
+    "pdf2_slices",
+    "pdf2_indices",
+    "pdf3_slices",
+    "pdf4_slices",
+    "pdf6_slices",
+)
+FLOAT_TABLES = ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale")
 
 
 @dataclass(frozen=True)
@@ -314,40 +326,3 @@ def validate_tables(p: MLVQParams, t: dict[str, np.ndarray], source: str) -> Non
     rng(p3, len(p2i), "all_PDF3Dslices → all_PDF2Dindices")
     rng(p4, len(p3), "all_PDF4Dslices → all_PDF3Dslices")
     files.check_index_range(p6, 0, len(p4), Path(source), "PDF6Dslices → all_PDF4Dslices (1-based)")
-
-
-# --- GPU tables (core/packed.py; read by mlvq_decode in kernels/include/btf_packed.h and
-# shaders/btf_mlvq_lib.glsl) ----------------------------------------------------------------
-_INT_TABLES = (
-    "index_ab",
-    "pdf2_colours",
-    "pdf2_slices",
-    "pdf2_indices",
-    "pdf3_slices",
-    "pdf4_slices",
-    "pdf6_slices",
-)
-_FLOAT_TABLES = ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_scale")
-
-
-def _pack(btf: MLVQBTF, out: TableWriter) -> None:
-    p, t = btf.p, btf.t
-    height, width = t["pdf6_slices"].shape
-    out.set(
-        n_beta=p.n_beta,
-        n_alpha=p.n_alpha,
-        n_theta=p.n_theta,
-        n_phi=p.n_phi,
-        width=width,
-        height=height,
-        rows_offset=p.rows_offset,
-        cols_offset=p.cols_offset,
-        hdr=int(p.hdr),
-        cos_beta=int(p.use_cos_beta),
-    )
-    out.set(**{name: out.int_table(t[name]) for name in _INT_TABLES})
-    out.set(**{"f_" + name: out.float_table(t[name]) for name in _FLOAT_TABLES})
-    out.set(f_beta=out.float_table(p.beta_angles_deg()), hdr_value=p.hdr_value)
-
-
-register_codec("mlvq", MLVQBTF, 1, _pack)

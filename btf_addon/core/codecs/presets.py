@@ -6,9 +6,9 @@ import inspect
 from collections.abc import Callable
 from typing import Any
 
+from ..model import BTF
 from . import microgeometry
 from .analytic import GGXBTF, LambertianBTF, PrincipledBTF
-from .model import BTF
 
 PRESETS: dict[str, Callable[..., BTF]] = {
     "lambertian": LambertianBTF,

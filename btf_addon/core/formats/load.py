@@ -1,15 +1,17 @@
-"""The one loader every tool uses (a path → a BTF), over the codec registry (core/packed.py
-``register_codec``: each codec registers its name, class, device id and pack function at the
-end of its own module; importing them here is what registers them)."""
+"""The one loader every tool uses (a path → a BTF): the file formats of this room, and the
+``.btfm`` container through the codec registry (core/codecs/packed.py ``register_codec``: each
+codec registers its name, class, device id and pack function at the end of its own module;
+``packed.codecs()`` imports them all)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from . import analytic, btfbase_binary, dense, image_sets, microgeometry, packed, svd, ubo2014  # noqa: F401
-from .errors import BTFFormatError, UnsupportedBTFError
-from .mlvq import MLVQBTF
-from .model import BTF
+from ..codecs import packed
+from ..codecs.mlvq import MLVQBTF
+from ..errors import BTFFormatError, UnsupportedBTFError
+from ..model import BTF
+from . import btfbase_binary, image_sets, ubo2014
 
 
 def codec_class(name: str) -> type:
@@ -53,7 +55,7 @@ def load_btfbase_directory(directory: Path) -> MLVQBTF:
     The text tables are exact; ``binary.btf`` is their 8-bit form (docs/formats.md), so it is
     the fallback. ``meta.extra['btfbase_form']`` says which was used (``info`` prints it).
     """
-    from . import btfbase_files
+    from ..codecs import btfbase_files
 
     binary = directory / "binary.btf"
     if btfbase_files.text_tables_complete(directory):
@@ -73,7 +75,7 @@ def load_btfbase_directory(directory: Path) -> MLVQBTF:
 
 
 def bytes_on_disk(path: str | Path, btf: BTF) -> int:
-    from . import btfbase_files
+    from ..codecs import btfbase_files
 
     path = Path(path)
     if path.is_dir() and btf.meta.extra.get("file_format", "").startswith("ubo-image-set"):

@@ -10,7 +10,7 @@ value = factor/π (docs/conventions.md). Image row 0 is the top (v = 1).
 JPEG decoding uses Pillow (libjpeg-turbo), imported only when a JPEG set is read: a baseline
 and progressive JPEG decoder of our own would be thousands of lines and ~100× slower in numpy,
 and OpenEXR reads no JPEG. Pillow is not bundled with the extension (six more platform wheels);
-without it a JPEG set is one clear error naming the package. HDR uses core/radiance_hdr.py.
+without it a JPEG set is one clear error naming the package. HDR uses core/formats/radiance_hdr.py.
 
 A full set does not fit a dense table at full resolution (UBO2003: 81·81·256²·3 floats =
 5.2 GB), so ``texels`` box-filters every image to texels × texels while reading (one image in
@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .dense import DenseBTF
-from .errors import BTFError, BTFFormatError
-from .grid import UBO2003
+from ..codecs.dense import DenseBTF
+from ..errors import BTFError, BTFFormatError
+from ..grid import UBO2003
 from .radiance_hdr import decode_hdr
 
 NAME = re.compile(

@@ -17,7 +17,7 @@ cl/programs.py passes as ``-D`` options and gl/interface.py as ``#define``s / cr
 defines at build time (kernels/include/btf_packed.h and shaders/btf_tables_lib.glsl
 ``#error`` without them).
 
-Codecs register themselves beside their own code (``register_codec`` at the end of mlvq.py,
+Codecs register themselves beside their own code (``register_codec`` at the end of mlvq_pack.py,
 dense.py, analytic.py): a codec id and a function that writes the codec's header slots and
 tables. ``pack`` dispatches on ``btf.meta.codec`` through that registry.
 """
@@ -29,9 +29,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import btf_importance
-from .errors import UnsupportedBTFError
-from .model import BTF, DelegatingBTF
+from ..errors import UnsupportedBTFError
+from ..mapping import BLOCK_SLOT, FILTER_IDS, MAPPING_IDS, MATERIAL_BLOCK_FLOATS
+from ..model import BTF, DelegatingBTF
+from ..sampling import btf_importance
 
 TABLE_WIDTH = 4096  # texels per row of both streams
 HEADER_INTS = 48  # integer header slots reserved (INT_HEADER uses the first ones)
@@ -70,7 +71,7 @@ INT_HEADER: tuple[str, ...] = (
     "f_pdf4_scale",
     "f_pdf6_scale",
     "f_beta",
-    # MLVQ, the decode's own interleaved copies (mlvq_fast_tables): float-stream offsets
+    # MLVQ, the decode's own interleaved copies (mlvq_pack.fast_tables): float-stream offsets
     "f_mlvq6",
     "f_mlvq4",
     "f_mlvq3",
@@ -89,11 +90,12 @@ INT_HEADER: tuple[str, ...] = (
     # (rank, U offset, SV offset) per channel, and the colour transform's 15 floats
     "svd_channels",
     "f_svd_colour",
-    # importance sampling of measured codecs (core/btf_importance.py; 0: none, cosine sampling)
+    # importance sampling of measured codecs (core/sampling/btf_importance.py; 0: none, cosine
+    # sampling)
     "f_importance",
     "importance_grid",
     "importance_views",
-    # MLVQ, flattened pdf4 → pdf3 (mlvq_fast_tables): float-stream offset
+    # MLVQ, flattened pdf4 → pdf3 (mlvq_pack.fast_tables): float-stream offset
     "f_mlvq43",
 )
 
@@ -116,62 +118,6 @@ def _float_slots() -> dict[str, tuple[int, int]]:
         slots[name] = (cursor, size)
         cursor += size
     return slots
-
-
-#: The per-material parameter block, one per (mesh, material) draw: how a surface point finds
-#: its texture coordinates (core/mapping.py computes every value; kernels/include/btf_surface.h
-#: and shaders/btf_mapping_lib.glsl read them as ``M_<NAME>``). Values, in order:
-#: material: index of the material's packed tables; mapping: MAPPING_UV | MAPPING_BOX;
-#: texel_filter: FILTER_LINEAR | FILTER_NEAREST; exposure: the multiplier 2^stops;
-#: uv_matrix: 2×2 row-major A and uv_offset c: texture coordinates = A·s + c, where s is the
-#: mesh UV (UV mapping) or a box projection's 2D coordinates (Box mapping);
-#: box_blend: blend width of the box projection's weights (0 = one projection per point);
-#: box_from_world: 3×4 row-major affine map from world space to the box's frame (orthonormal
-#: rotation × a uniform scale, so normals map by its 3×3 part then normalise).
-MATERIAL_BLOCK: tuple[tuple[str, int], ...] = (
-    ("material", 1),
-    ("mapping", 1),
-    ("texel_filter", 1),
-    ("exposure", 1),
-    ("uv_matrix", 4),
-    ("uv_offset", 2),
-    ("box_blend", 1),
-    ("box_from_world", 12),
-)
-MATERIAL_BLOCK_FLOATS = 32  # floats reserved per block (a GLSL texture row, an OpenCL stride)
-#: Enumerations of the block, numbered as Blender's EnumProperty items (blender/properties.py
-#: ``mapping``, ``texel_filter``): one meaning per number on both sides. They reach device code
-#: as defines (MAPPING_*, FILTER_*), so device code never spells a number.
-MAPPING_IDS = {"UV": 0, "BOX": 1}
-FILTER_IDS = {"LINEAR": 0, "NEAREST": 1}
-
-
-def _block_slots() -> dict[str, tuple[int, int]]:
-    slots, cursor = {}, 0
-    for name, size in MATERIAL_BLOCK:
-        slots[name] = (cursor, size)
-        cursor += size
-    return slots
-
-
-BLOCK_SLOT = _block_slots()  # name → (first float, size)
-assert sum(size for _, size in MATERIAL_BLOCK) <= MATERIAL_BLOCK_FLOATS
-
-
-def material_block(**values: float | Sequence[float]) -> np.ndarray:
-    """One parameter block, (MATERIAL_BLOCK_FLOATS,) float32, from values by slot name (every
-    slot must be given: a forgotten one would silently read 0 on the device)."""
-    missing = set(BLOCK_SLOT) - set(values)
-    if missing:
-        raise KeyError(f"material block slots missing: {sorted(missing)}")
-    out = np.zeros(MATERIAL_BLOCK_FLOATS, dtype=np.float32)
-    for name, value in values.items():
-        first, size = BLOCK_SLOT[name]  # KeyError for an unknown name
-        flat = np.asarray(value, dtype=np.float32).ravel()
-        if flat.size != size:
-            raise ValueError(f"block slot {name!r} holds {size} floats, got {flat.size}")
-        out[first : first + size] = flat
-    return out
 
 
 INT_SLOT = {name: i for i, name in enumerate(INT_HEADER)}
@@ -225,6 +171,11 @@ class TableWriter:
         self._floats.append(flat)
         return offset
 
+    def align_floats(self, multiple: int) -> None:
+        """Pad the float stream so the next table starts at a multiple of ``multiple`` floats
+        (a float4 table read as 16-byte rows)."""
+        self.float_table(np.zeros(-self._float_cursor % multiple, np.float32))
+
     def finish(self, name: str) -> PackedTables:
         int_stream = np.concatenate([self.int_header, *self._ints])
         float_stream = np.concatenate([self.float_header, *self._floats])
@@ -276,7 +227,7 @@ def register_codec(
 
 def codecs() -> dict[str, Codec]:
     """Every registered codec by name (imports the codec modules, so all have registered)."""
-    from . import codecs as _all_codecs  # noqa: F401 - registration happens at import
+    from . import analytic, dense, microgeometry, mlvq_pack, svd  # noqa: F401 - they register
 
     return dict(_CODECS)
 
@@ -321,11 +272,12 @@ def layout_stream(stream: np.ndarray) -> np.ndarray:
 
 def pack(btf: BTF, importance: bool = False) -> PackedTables:
     """A BTF's tables in the packed layout (a device wrapper packs the BTF it wraps).
-    ``importance``: a measured codec's sampling table too (core/btf_importance.py; the Sampled
+    ``importance``: a measured codec's sampling table too (core/sampling/btf_importance.py; the
+    Sampled
     final render's), built once per BTF object."""
     while isinstance(btf, DelegatingBTF):
         btf = btf.btf
-    codec = _CODECS.get(btf.meta.codec)
+    codec = codecs().get(btf.meta.codec)
     if codec is None or not codec.on_gpu:
         raise UnsupportedBTFError(
             f"the GPU back ends (GLSL, OpenCL) do not evaluate {btf.meta.codec!r} BTFs; "
@@ -334,8 +286,6 @@ def pack(btf: BTF, importance: bool = False) -> PackedTables:
     writer = TableWriter()
     writer.set(magic=MAGIC, codec=codec.codec_id, value_scale=btf.meta.value_scale)
     codec.pack(btf, writer)
-    if codec.name == "mlvq":
-        mlvq_fast_tables(btf.t, writer)
     if importance and btf_importance.sampled_by_table(btf):
         table = btf_importance.importance_table(btf)
         writer.set(
@@ -344,44 +294,3 @@ def pack(btf: BTF, importance: bool = False) -> PackedTables:
             importance_views=table.views,
         )
     return writer.finish(btf.meta.name)
-
-
-def mlvq_fast_tables(t: dict[str, np.ndarray], out: TableWriter) -> None:
-    """The MLVQ tables again, interleaved in the order the device decode reads them, so each
-    step of its chain of dependent reads is one read of one cache line instead of two or three
-    (docs/accuracy.md "BTFbase decoding"). Exact copies: every value is the original float32,
-    every index an integer below 2^24 (exact as float32, which ``finish`` checks).
-
-    f_mlvq6: per texel (pdf6 scale, pdf6 slot) — float2; f_mlvq4: per (slot, φ)
-    (pdf4 scale, pdf3 row) — float2; f_mlvq3: per (row, θ) (pdf3 scale, luminance function,
-    colour function, 0) — float4; f_mlvq2: per (luminance function, α) (pdf2 scale, pdf1
-    curve) — float2; f_mlvq_ab: per (colour slice, β node) its (Cb, Cr) — float2, so the two
-    nodes of a β interval are one 4-float read (index_ab and ab_colors resolved)."""
-    f32 = np.float32
-
-    def pairs(*columns: np.ndarray) -> np.ndarray:
-        return np.stack([np.asarray(c).ravel().astype(f32) for c in columns], axis=-1)
-
-    for name in ("pdf2_indices", "pdf3_slices", "pdf4_slices", "pdf6_slices", "pdf2_slices"):
-        if t[name].size and int(t[name].max()) >= MAX_EXACT_INT:
-            raise UnsupportedBTFError(f"MLVQ table {name} holds an index of 2^24 or more")
-    idx2 = t["pdf3_slices"].ravel()
-    fns = t["pdf2_indices"][idx2]
-    f3 = pairs(t["pdf3_scale"], fns[:, 0], fns[:, 1], np.zeros(len(idx2)))
-    out.float_table(np.zeros(-out._float_cursor % 4, f32))  # f_mlvq43 rows 16-byte aligned
-    # f_mlvq43: per (pdf6 slot, φ, θ) the pdf4 → pdf3 chain resolved, (s4·s3, luminance fn,
-    # colour fn, 0) — float4; θ and θ+1 are one 8-float read. The product is rounded once
-    # from float64 (the reference multiplies the two float32 scales in float64).
-    rows4 = t["pdf4_slices"].ravel()
-    s43 = t["pdf4_scale"].ravel()[:, None].astype(np.float64) * t["pdf3_scale"][rows4]
-    fns43 = t["pdf2_indices"][t["pdf3_slices"][rows4]]  # (slots·φ, θ, 2)
-    f43 = pairs(s43, fns43[..., 0], fns43[..., 1], np.zeros(s43.size))
-    out.set(f_mlvq43=out.float_table(f43))
-    out.float_table(np.zeros(-out._float_cursor % 4, f32))  # f_mlvq3 rows 16-byte aligned
-    out.set(
-        f_mlvq3=out.float_table(f3),
-        f_mlvq6=out.float_table(pairs(t["pdf6_scale"], t["pdf6_slices"])),
-        f_mlvq4=out.float_table(pairs(t["pdf4_scale"], t["pdf4_slices"])),
-        f_mlvq2=out.float_table(pairs(t["pdf2_scale"], t["pdf2_slices"])),
-        f_mlvq_ab=out.float_table(t["ab_colors"][t["index_ab"]].astype(f32)),
-    )

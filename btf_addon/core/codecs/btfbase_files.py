@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BTFFormatError, UnsupportedBTFError
+from ..errors import BTFFormatError, UnsupportedBTFError
 
 
 @dataclass(frozen=True)

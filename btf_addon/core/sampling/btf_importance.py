@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import BTF, DelegatingBTF
 from .envmap import LUMINANCE
-from .model import BTF, DelegatingBTF
 
 GRID = 24  # cells per side of the incoming-direction square (576 cells)
 VIEWS = 7  # view bins per side (odd: one bin is centred on the normal view)
