@@ -71,6 +71,9 @@ PRIOR_WEIGHT = 0.3  # weight of each of the remembered line's two pseudo-samples
 SMOOTHING = 0.3  # EWMA weight of the newest interval in ``frame_time_s``
 TRUST_FRAMES = 3  # after two slow frames in a row, the next ones are believed without test
 CHANGE = 0.25  # an interval this far (relative) from the prediction means the times changed
+#: 90 Hz: the budget where no one reports the display's period (Blender's VR session never
+#: says it; the XTAL bridge asks the runtime, then the headset profile).
+DEFAULT_BUDGET_S = 0.011
 
 
 class FrameBudget:
@@ -84,7 +87,7 @@ class FrameBudget:
 
     def __init__(
         self,
-        budget_s: float = 0.011,
+        budget_s: float = DEFAULT_BUDGET_S,
         clock: Callable[[], float] = time.perf_counter,
         *,
         k_max: int = 256,
