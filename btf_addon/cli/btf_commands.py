@@ -60,7 +60,9 @@ def add_parsers(sub) -> None:
         choices=["value", "raw"],
         default="value",
         help="value: the project's convention (docs/conventions.md); raw: the codec's "
-        "stored units (for MLVQ, the original decoder's 8-bit-scale RGB)",
+        "stored units (for MLVQ, the original decoder's 8-bit-scale RGB; for UBO2014, the "
+        "file's RGB as stored, without the cosine the convention multiplies in where the "
+        "file's cosine flag is 0)",
     )
     p.set_defaults(func=cmd_eval)
 
@@ -227,7 +229,7 @@ def cmd_eval(args) -> int:
             ) from None
     values = btf.evaluate_angles(queries)
     if args.units == "raw":
-        values = (values.astype(np.float64) / btf.meta.value_scale).astype(np.float32)
+        values = btf.raw_units(values, queries[:, 2]).astype(np.float32)
     _save_npy_atomic(args.out, values.astype(np.float32))
     return 0
 

@@ -136,6 +136,13 @@ class BTF:
         wo = directions_from_angles_deg(tv, pv)
         return self._run(valid, q[:, :2], wi, wo, ti, pi, tv, pv)
 
+    def raw_units(self, values: np.ndarray, theta_i_deg: np.ndarray) -> np.ndarray:
+        """``values`` (N, 3) this BTF gave for light polar angles ``theta_i_deg`` (N,) in the
+        codec's stored units, float64: ÷ ``value_scale`` (for MLVQ the original decoder's
+        8-bit-scale RGB). A codec whose values carry an angular factor the data lacks undoes
+        it too (codecs/svd.py)."""
+        return np.asarray(values, dtype=np.float64) / self.meta.value_scale
+
     def _run(self, valid, uv, wi, wo, ti, pi, tv, pv) -> np.ndarray:
         valid = valid & (ti <= 90.0) & (tv <= 90.0)
         out = np.zeros((len(valid), 3), dtype=np.float32)
@@ -165,6 +172,9 @@ class DelegatingBTF(BTF):
 
     def _evaluate_valid(self, q: Queries) -> np.ndarray:
         return self.evaluator(q)
+
+    def raw_units(self, values: np.ndarray, theta_i_deg: np.ndarray) -> np.ndarray:
+        return self.btf.raw_units(values, theta_i_deg)
 
     def tables(self) -> dict[str, np.ndarray]:
         return self.btf.tables()

@@ -214,3 +214,40 @@ def test_eval_opencl_without_opencl_is_a_clear_error(tmp_path):
     assert proc.returncode == 2
     assert "OpenCL back end unavailable" in proc.stderr and "pocl" in proc.stderr
     assert "Traceback" not in proc.stderr and not (tmp_path / "o.npy").exists()
+
+
+def test_raw_units_of_a_ubo2014_file_are_its_stored_rgb(tmp_path):
+    """A UBO2014 file whose data lacks the cosine (meta version 1: no cosine flag, so 0): the
+    value is RGB · scale / π · cos θi, and ``--units raw`` gives the stored RGB · scale back
+    unchanged — computed here by hand from the file's own factors (btflib: the cosine flag
+    says whether the data holds the cosine; raw must not depend on it). rtol 1e-5: float32
+    factors and output."""
+    from ubo2014_files import YUV_TO_RGB, hand_built
+
+    blob, src = hand_built(version=1)
+    path = tmp_path / "nocos.btf"
+    path.write_bytes(blob)
+    rows, want = [], []
+    for v, (tv, pv) in enumerate(src["views"]):
+        for li, (tl, pl) in enumerate(src["lights"]):
+            row = v * len(src["lights"]) + li
+            for x in (0, 1):
+                y = [float(src["u"][c][row] @ src["sv"][c][x]) for c in range(3)]
+                want.append(np.maximum(YUV_TO_RGB @ np.array(y) * (1.0, 0.5, 2.0), 0.0))
+                rows.append([(x + 0.5) / 2, 0.5, *np.degrees([tl, pl, tv, pv])])
+    np.save(tmp_path / "q.npy", np.array(rows, np.float32))
+    for units in ("value", "raw"):
+        run_cli(
+            "eval",
+            path,
+            "--queries",
+            tmp_path / "q.npy",
+            "--out",
+            tmp_path / f"{units}.npy",
+            "--units",
+            units,
+        )
+    raw, value = np.load(tmp_path / "raw.npy"), np.load(tmp_path / "value.npy")
+    np.testing.assert_allclose(raw, np.array(want), rtol=1e-5, atol=1e-6)
+    cos_i = np.cos(np.radians(np.array(rows)[:, 2]))[:, None]
+    np.testing.assert_allclose(value, np.array(want) * cos_i / np.pi, rtol=1e-5, atol=1e-7)

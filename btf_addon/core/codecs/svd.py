@@ -227,6 +227,15 @@ class SVDBTF(BTF):
                 out[used] += w[used, None] * rgb
         return out * self._angular_factor(q.theta_i)[:, None] * self.meta.value_scale
 
+    def raw_units(self, values: np.ndarray, theta_i_deg: np.ndarray) -> np.ndarray:
+        """The decoded RGB: without ``value_scale`` and without the angular factor (× cos θi
+        for a file whose data lacks the cosine, the fade past the last light ring). Where that
+        factor is 0 (θi = 90° without the cosine) the value holds nothing to recover: 0."""
+        factor = self._angular_factor(np.abs(np.asarray(theta_i_deg, dtype=np.float64)))
+        scaled = np.asarray(values, dtype=np.float64) / self.meta.value_scale
+        safe = np.where(factor > 0, factor, 1.0)
+        return np.where(factor[:, None] > 0, scaled / safe[:, None], 0.0)
+
     def _angular_factor(self, theta_i: np.ndarray) -> np.ndarray:
         cos_i = np.cos(np.radians(theta_i))
         if not self.p.cosine_in_data:
