@@ -29,7 +29,15 @@ from .errors import (
     SessionLostError,
     UnsupportedRuntimeError,
 )
-from .views import FORMATS, EyeSwapchain, FrameInfo, LocatedView, located_view, set_pose
+from .views import (
+    FORMATS,
+    EyeSwapchain,
+    FrameInfo,
+    LocatedView,
+    located_view,
+    set_pose,
+    swapchain_size,
+)
 
 log = logging.getLogger(__name__)
 
@@ -316,8 +324,7 @@ class XRSession:
         dtype = FORMATS[chosen][0]
         ctx = self.gl.ctx
         for (w, h), (max_w, max_h) in zip(self.recommended, self._max, strict=True):
-            width = min(max(1, round(w * self.resolution_scale)), max_w or w)
-            height = min(max(1, round(h * self.resolution_scale)), max_h or h)
+            width, height = swapchain_size((w, h), (max_w, max_h), self.resolution_scale)
             info = openxr.SwapchainCreateInfo(
                 usage_flags=openxr.SwapchainUsageFlags.COLOR_ATTACHMENT_BIT
                 | openxr.SwapchainUsageFlags.SAMPLED_BIT,

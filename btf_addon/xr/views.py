@@ -91,3 +91,17 @@ def set_pose(pv, view: LocatedView) -> None:
     fov = view.fov
     f.angle_left, f.angle_right = fov.angle_left, fov.angle_right
     f.angle_up, f.angle_down = fov.angle_up, fov.angle_down
+
+
+def swapchain_size(
+    recommended: tuple[int, int], maximum: tuple[int, int], scale: float
+) -> tuple[int, int]:
+    """An eye's swapchain size: the runtime's ``recommended`` size times ``scale``, one factor
+    for both sides so the eye keeps the recommended aspect (the view's FOV is drawn into it),
+    within the runtime's ``maximum`` (a side of 0: none stated, the recommended size is the
+    most) and at least 1 pixel a side. Clamping each side alone turned Monado's 4:3
+    recommendation into 16:9 at ``--scale 10``."""
+    w, h = max(1, recommended[0]), max(1, recommended[1])
+    most_w, most_h = maximum[0] or w, maximum[1] or h
+    factor = min(scale, most_w / w, most_h / h)
+    return max(1, min(round(w * factor), most_w)), max(1, min(round(h * factor), most_h))
