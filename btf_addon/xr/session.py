@@ -16,6 +16,7 @@ they occur.
 from __future__ import annotations
 
 import ctypes
+import json
 import logging
 import os
 import sys
@@ -57,11 +58,32 @@ def _openxr():
     return openxr
 
 
+def manifest_state(manifest: str) -> str:
+    """What is wrong with a runtime manifest, or that it looks usable: the file, its JSON, and
+    the runtime library it names (``runtime.library_path``; the OpenXR loader resolves a
+    relative path against the manifest's folder, and leaves a bare file name to the system's
+    library search)."""
+    if not os.path.isfile(manifest):
+        return "does not exist"
+    try:
+        with open(manifest, encoding="utf-8") as f:
+            library = json.load(f)["runtime"]["library_path"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return f"exists, but is not a runtime manifest with runtime.library_path: {exc}"
+    if not isinstance(library, str) or not library:
+        return "exists, but its runtime.library_path is empty"
+    if os.sep not in library and "/" not in library:
+        return f"exists; its runtime library {library} is left to the system's library search"
+    path = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(manifest)), library))
+    if not os.path.isfile(path):
+        return f"exists, but the runtime library it names, {path}, does not exist"
+    return f"exists; runtime library {path}"
+
+
 def _runtime_hint() -> str:
     manifest = os.environ.get("XR_RUNTIME_JSON")
     if manifest:
-        state = "exists" if os.path.isfile(manifest) else "does not exist"
-        return f"XR_RUNTIME_JSON={manifest} ({state})"
+        return f"XR_RUNTIME_JSON={manifest} ({manifest_state(manifest)})"
     return (
         "XR_RUNTIME_JSON is not set and no active runtime is registered "
         "(Linux: ~/.config/openxr/1/active_runtime.json or /etc/xdg/openxr/1/; Windows: the "

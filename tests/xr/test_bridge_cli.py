@@ -119,3 +119,20 @@ def test_bridge_usage_errors(tmp_path):
     assert proc.returncode == 2 and "no such .blend" in proc.stderr
     proc = run_cli("bridge", "--blend", tmp_path / "x.blend", "--frames", "0", check=False)
     assert proc.returncode == 2 and "must be at least 1" in proc.stderr
+
+
+def test_bridge_with_a_manifest_naming_a_missing_library(blend, tmp_path):
+    """The manifest exists but the runtime library it names does not (issue 30 item 7): the
+    message names the library, resolved against the manifest's folder as the loader does."""
+    manifest = tmp_path / "runtime.json"
+    manifest.write_text(
+        '{"file_format_version": "1.0.0", "runtime": {"library_path": "./gone/libruntime.so"}}'
+    )
+    proc = run_cli(
+        "bridge", "--blend", blend, "--frames", "1", check=False,
+        env=cli_env(XR_RUNTIME_JSON=str(manifest)),
+    )  # fmt: skip
+    assert proc.returncode == 3, proc.stderr
+    library = tmp_path / "gone" / "libruntime.so"
+    assert f"the runtime library it names, {library}, does not exist" in proc.stderr
+    assert "does not exist" in proc.stderr and "Traceback" not in proc.stderr
