@@ -13,7 +13,7 @@ from ..core import memory
 from ..core.codecs.dense import tabulate
 from ..core.codecs.presets import PRESETS, make_preset, preset_parameters
 from ..core.errors import BTFError
-from ..core.fileio import atomic_write
+from ..core.fileio import atomic_write, check_output
 from ..core.formats.container import SUFFIX, write_container
 from ..core.formats.imageio import srgb8_from_linear, write_exr, write_png
 from ..core.formats.load import bytes_on_disk, load_btf
@@ -211,6 +211,7 @@ def load_queries(path: Path, also: memory.Estimate | None = None) -> np.ndarray:
 
 
 def cmd_eval(args) -> int:
+    check_output(args.out)  # a folder or an unwritable place: said now, not after the work
     # The cheap checks first (header, shape), then memory for the queries and the BTF together.
     queries = load_queries(args.queries, also=memory.btf_load(args.path))
     btf = load_btf(args.path)
@@ -276,6 +277,7 @@ def cmd_swatch(args) -> int:
     suffix = args.output.suffix.lower()
     if suffix not in (".exr", ".png"):
         raise BTFError(f"{args.output}: output must end in .exr or .png")
+    check_output(args.output)
     light, view = _angle_pair(args.light, "--light"), _angle_pair(args.view, "--view")
     memory.require(memory.swatch(args.size, suffix) + memory.btf_load(args.path))
     btf = load_btf(args.path)
@@ -355,6 +357,7 @@ def _preset_estimate(preset: str, params: dict) -> memory.Estimate | None:
 
 
 def cmd_synth(args) -> int:
+    check_output(_with_suffix(args.output))
     params = parse_preset_params(args.preset, args.extra)
     grid = _tabulate_grid(args.tabulate) if args.tabulate else None
     estimate = _preset_estimate(args.preset, params)
@@ -387,6 +390,7 @@ def cmd_convert(args) -> int:
     from ..core.formats.image_sets import is_image_set, load_image_set
     from ..core.formats.ubo2014_writer import write_ubo2014
 
+    check_output(args.dst)
     memory.require(memory.btf_load(args.src))
     src = Path(args.src)
     if args.texels is not None and not 1 <= args.texels <= 4096:

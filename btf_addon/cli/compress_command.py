@@ -25,6 +25,7 @@ from ..core.encoders.mlvq import MLVQSettings, encode_mlvq
 from ..core.encoders.svd import COLOUR_SPACES, SVDSettings, encode_svd, memory_bound
 from ..core.encoders.svd import sizes as svd_sizes
 from ..core.errors import BTFError
+from ..core.fileio import check_output
 from ..core.formats.container import SUFFIX, write_container
 from ..core.formats.load import load_btf
 from .accuracy_command import ProgressBar
@@ -114,6 +115,7 @@ def _ranks(text: str) -> tuple[int, ...]:
 
 def cmd_compress(args) -> int:
     out = args.out if args.out.suffix else args.out.with_suffix(SUFFIX)
+    check_output(out)  # before an encode of minutes, not after it
     memory.require(memory.btf_load(args.src))
     src = load_btf(args.src)
     if args.codec == "svd":

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..core import memory
 from ..core.errors import BTFError
-from ..core.fileio import atomic_write
+from ..core.fileio import atomic_write, check_output
 from ..core.formats.imageio import exr_size, read_exr
 from ..core.sampling.envmap import Environment
 
@@ -37,6 +37,8 @@ def cmd_envmap(args) -> int:
             raise BTFError(f"{flag} must be a finite number, got {value}")
     if args.strength < 0:
         raise BTFError(f"--strength must be ≥ 0, got {args.strength}")
+    out = args.output if args.output.suffix == ".npz" else args.output.with_suffix(".npz")
+    check_output(out)
     width, height = exr_size(args.map)  # the header only: refuse a map too large before reading
     memory.require(
         memory.environment(width, height, f"an environment of {width}×{height} pixels")
@@ -49,7 +51,6 @@ def cmd_envmap(args) -> int:
     except ValueError as exc:
         raise BTFError(f"{args.map}: {exc}") from None
     lights = env.virtual_lights(args.lights, seed=args.seed)
-    out = args.output if args.output.suffix == ".npz" else args.output.with_suffix(".npz")
     atomic_write(
         out,
         lambda fh: np.savez(

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from ..core import memory
 from ..core.errors import BTFError
+from ..core.fileio import check_output
 from ..gl.stereo_capture import LAYOUTS, capture_profile
 from ..render.headsets import PROFILES, profile
 from ..render.pixel_filter import FilterType, PixelFilter
@@ -276,6 +277,7 @@ def cmd_render(args) -> int:
     suffix = args.output.suffix.lower()
     if suffix not in FORMATS:
         raise BTFError(f"{args.output}: output must end in .png or .exr")
+    check_output(args.output)
     if args.blend is not None:
         _check_blend(args.blend)
     _check_stereo_flags(args)

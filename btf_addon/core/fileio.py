@@ -20,6 +20,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
+from .errors import BTFError
+
 log = logging.getLogger(__name__)
 
 
@@ -105,6 +107,27 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
     return removed
 
 
+def check_output(path: str | Path) -> Path:
+    """Refuse, before any work is done, an output ``atomic_write`` could not put in place: a
+    folder, a parent that is a file, or a folder this process cannot create a file in
+    (permissions, a read-only file system: probed by creating and removing a temporary file
+    there). BTFError naming the output; ``path`` itself when it can be written."""
+    path = Path(path)
+    if path.is_dir():
+        raise BTFError(f"{path}: is a folder; name the file to write (for example {path / 'out'})")
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent  # atomic_write creates the missing folders below this one
+    if not folder.is_dir():
+        raise BTFError(f"{path}: cannot be written: {folder} is a file, not a folder")
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise BTFError(f"{path}: cannot write in {folder}: {exc.strerror or exc}") from None
+    return path
+
+
 def _atomic(path: Path, write: Callable[[Path, BinaryIO], None]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)
@@ -120,6 +143,12 @@ def _atomic(path: Path, write: Callable[[Path, BinaryIO], None]) -> Path:
             fh.flush()
             os.fsync(fh.fileno())  # what was written by name is the same inode: synced too
         os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if exc.filename in (None, str(tmp), tmp):
+            # A full disk or a refused rename: say the output, not our temporary name.
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+        raise
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
