@@ -41,7 +41,7 @@ def cmd_envmap(args) -> int:
     check_output(out)
     width, height = exr_size(args.map)  # the header only: refuse a map too large before reading
     memory.require(
-        memory.environment(width, height, f"an environment of {width}×{height} pixels")
+        memory.environment(width, height, f"the environment {args.map} of {width}×{height} pixels")
         + memory.virtual_lights(args.lights, f"{args.lights} virtual lights")
     )
     try:

@@ -77,9 +77,15 @@ def test_header_fields_are_checked_before_allocation(saved, case):
 
 
 @pytest.mark.parametrize(
-    "text", [b'{"codec": "ggx", "params": {"roughness": NaN}}', b'{"a": Infinity}']
+    ("text", "field"),
+    [
+        (b'{"codec": "ggx", "params": {"roughness": NaN}}', "params.roughness is nan"),
+        (b'{"a": Infinity}', "a is inf"),
+        (b'{"params": {"rgb": [1, 2, -Infinity]}}', "params.rgb[2] is -inf"),
+    ],
 )
-def test_non_finite_numbers_in_the_header_are_refused(saved, text):
+def test_non_finite_numbers_in_the_header_are_refused(saved, text, field):
+    """Refused, naming the field (issue 30 item 16: the message named only "NaN")."""
     rewrite(saved, lambda h: h)  # a valid file first, then its header replaced by raw text
     blob = saved.read_bytes()
     fixed = len(container.MAGIC) + 8
@@ -90,8 +96,9 @@ def test_non_finite_numbers_in_the_header_are_refused(saved, text):
     prefix += b"\0" * ((-len(prefix)) % container.ALIGN)
     data = prefix + body
     saved.write_bytes(data + hashlib.sha256(data).digest() + container.END_MAGIC)
-    with pytest.raises(BTFFormatError, match="non-finite"):
+    with pytest.raises(BTFFormatError) as err:
         load_btf(saved)
+    assert f"{saved}: header field {field}: it must be a finite number" in str(err.value)
 
 
 @pytest.fixture(scope="module")

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import struct
 from pathlib import Path
 from typing import Any
@@ -120,19 +121,39 @@ def read_header(path: str | Path) -> tuple[dict[str, Any], bytes]:
     if fixed + head_len > body_end:
         raise BTFFormatError(f"{path}: header length {head_len} runs past the end of the file")
     try:
-        header = json.loads(blob[fixed : fixed + head_len], parse_constant=_no_constant)
+        header = json.loads(blob[fixed : fixed + head_len])
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         raise BTFFormatError(f"{path}: header is not valid JSON") from None
-    except ValueError as exc:  # NaN / Infinity: json accepts them, a BTF parameter must not
-        raise BTFFormatError(f"{path}: header holds {exc}") from None
+    try:
+        field = _non_finite_field(header)
+    except RecursionError:
+        raise BTFFormatError(f"{path}: header is nested too deeply") from None
+    if field is not None:  # NaN / Infinity: json accepts them, a BTF parameter must not
+        name, value = field
+        raise BTFFormatError(f"{path}: header field {name} is {value}: it must be a finite number")
     data_start = fixed + head_len + _pad(fixed + head_len)
     body = blob[data_start:body_end]
     validate_header(header, len(body), path)
     return header, body
 
 
-def _no_constant(name: str):
-    raise ValueError(f"a non-finite number ({name})")
+def _non_finite_field(value, name: str = "") -> tuple[str, float] | None:
+    """The first non-finite number in a parsed JSON value and where it is (``params.scale[2]``),
+    or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return name or "(the header)", value
+    items = (
+        (((f"{name}.{k}" if name else str(k)), v) for k, v in value.items())
+        if isinstance(value, dict)
+        else ((f"{name}[{i}]", v) for i, v in enumerate(value))
+        if isinstance(value, list)
+        else ()
+    )
+    for child_name, child in items:
+        found = _non_finite_field(child, child_name)
+        if found is not None:
+            return found
+    return None
 
 
 #: Dimensions an array may have: the codecs' tables have at most 5 (dense: V, L, H, W, 3).
