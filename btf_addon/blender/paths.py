@@ -144,13 +144,21 @@ def missing_sources(exported) -> list[MissingSource]:
 
 
 def missing_message(missing: list[MissingSource]) -> str:
-    lines = [f"material {m.material!r}: {m.reason}" for m in missing]
-    return (
-        f"{len(missing)} BTF source(s) missing; nothing rendered:\n"
-        + "\n".join(lines)
-        + "\nFile › External Data › Report Missing BTF Sources lists them; the add-on's "
+    """F12's refusal: one line for one source (what a farm's log shows first), naming the
+    material and the file; a line per source after a heading for several."""
+    advice = (
+        "File › External Data › Report Missing BTF Sources lists them; the add-on's "
         "preferences can render them magenta instead."
     )
+
+    def line(m: MissingSource) -> str:
+        named = m.reason if not m.source or m.source in m.reason else f"{m.source}: {m.reason}"
+        return f"material {m.material!r}: {named}"
+
+    if len(missing) == 1:
+        return f"BTF source missing; nothing rendered: {line(missing[0])}. {advice}"
+    lines = "\n".join(line(m) for m in missing)
+    return f"{len(missing)} BTF sources missing; nothing rendered:\n{lines}\n{advice}"
 
 
 def with_error_colour(exported, missing: list[MissingSource]):

@@ -132,6 +132,30 @@ def test_missing_source_fails_the_render_or_renders_magenta(
     assert centre[0] > 0.05 and centre[2] > 0.05 and centre[1] == 0.0
 
 
+def test_a_corrupt_source_fails_the_render_in_one_line_naming_the_file(
+    bpy_module, fresh_scene, tmp_path, preferences
+):
+    """Issue 30 item 16: a damaged .btfm gave three lines ("1 BTF source(s) missing", the
+    material, the advice); a farm's log shows the first. One line names the material and the
+    file, and why."""
+    from btf_addon.core.codecs.analytic import LambertianBTF
+    from btf_addon.core.formats.container import write_container
+
+    bpy = bpy_module
+    source = write_container(tmp_path / "damaged.btfm", LambertianBTF(0.5))
+    source.write_bytes(source.read_bytes()[:-7])  # truncated: the end marker is gone
+    small_render_scene(bpy, tmp_path, str(source))
+    with pytest.raises(RuntimeError) as err:
+        bpy.ops.render.render(write_still=True)
+    # Blender lists the error once per way it was raised (error_set and report): one line,
+    # however many times it is listed.
+    lines = {line.removeprefix("Error: ") for line in str(err.value).strip().splitlines()}
+    assert len(lines) == 1, lines
+    (line,) = lines
+    assert "nothing rendered" in line and "'Broken'" in line
+    assert str(source) in line and "truncated" in line
+
+
 def test_a_blend_and_its_folder_render_elsewhere(bpy_module, fresh_scene, tmp_path):
     """The project folder moved to another machine's path: relative sources still load."""
     bpy = bpy_module
