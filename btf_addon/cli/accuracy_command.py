@@ -15,6 +15,7 @@ from pathlib import Path
 from ..core.errors import BTFError
 from ..render.accuracy.ladder import describe_rung, run, verify_recommendation
 from ..render.accuracy.report import to_json, write_json, write_report
+from .blend_file import check_blend, open_blend
 
 DESCRIPTION = """\
 Estimate what accuracy costs in time for a .blend's camera view: every quality knob that
@@ -123,8 +124,7 @@ class ProgressBar:
 
 
 def cmd_accuracy(args) -> int:
-    if not args.blend.is_file():
-        raise BTFError(f"{args.blend}: no such .blend file")
+    check_blend(args.blend)  # before Blender starts
     target = args.target if args.target is not None or args.budget is not None else 0.02
     try:
         import bpy
@@ -135,7 +135,7 @@ def cmd_accuracy(args) -> int:
 
     folder = args.output.resolve()
     with _engine_registered(bpy):
-        bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+        open_blend(bpy, args.blend)
         estimate, rungs, renderer = prepare(
             bpy.context.evaluated_depsgraph_get(),
             args.size,

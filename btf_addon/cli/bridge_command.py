@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..core.errors import BTFError
 from ..render.headsets import PROFILES
+from .blend_file import check_blend, open_blend
 
 DESCRIPTION = """\
 Run the XTAL bridge on a .blend's active scene against the OpenXR runtime the loader finds
@@ -109,8 +110,7 @@ def cmd_bridge(args) -> int:
     from ..xr.bridge import BridgeSettings, run_bridge
     from ..xr.controls import vr_controls
 
-    if not args.blend.is_file():
-        raise BTFError(f"{args.blend}: no such .blend file")
+    check_blend(args.blend)  # before Blender starts
     scene, render_settings = export_blend(args.blend)
     settings = BridgeSettings(
         lights_total=args.lights or render_settings.lights_total,
@@ -154,7 +154,7 @@ def export_blend(path: Path) -> tuple:
     from .render_command import _engine_registered
 
     with _engine_registered(bpy):
-        bpy.ops.wm.open_mainfile(filepath=str(path.resolve()))
+        open_blend(bpy, path)
         from ..blender.export import export_scene
         from ..blender.sync import frame_size, render_settings
 

@@ -25,6 +25,7 @@ from ..gl.stereo_capture import LAYOUTS, capture_profile
 from ..render.headsets import PROFILES, profile
 from ..render.pixel_filter import FilterType, PixelFilter
 from ..render.settings import FinalMode, Lighting, RenderSettings
+from .blend_file import check_blend, open_blend, report_text
 
 #: Output suffix → Blender image settings: 8-bit RGBA PNG (through the view transform) or
 #: 32-bit float RGBA EXR (scene-linear values).
@@ -185,20 +186,6 @@ def _at_least(low: int):
 
 
 #: How a .blend starts: plain, gzip- or zstd-compressed (Blender writes all three).
-BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
-
-
-def _check_blend(path: Path) -> None:
-    """A file that cannot be a .blend is refused before Blender starts (Blender would print
-    its own error and the command would fail with a traceback)."""
-    if not path.is_file():
-        raise BTFError(f"{path}: no such .blend file")
-    with open(path, "rb") as fh:
-        head = fh.read(8)
-    if not head.startswith(BLEND_MAGICS):
-        raise BTFError(f"{path}: not a .blend file (it does not start as one)")
-
-
 def _after_interrupt(output: Path, before: int | None) -> None:
     """Ctrl-C or SIGTERM during F12 raises inside the engine's render callback, which Blender
     reports and then saves what was drawn: remove that image and end as interrupted."""
@@ -279,7 +266,7 @@ def cmd_render(args) -> int:
         raise BTFError(f"{args.output}: output must end in .png or .exr")
     check_output(args.output)
     if args.blend is not None:
-        _check_blend(args.blend)
+        check_blend(args.blend)
     _check_stereo_flags(args)
     if args.resolution is not None:  # known before Blender starts: refuse a size up front
         _check_memory(*args.resolution, args.lights or 0)
@@ -295,12 +282,7 @@ def cmd_render(args) -> int:
 
             scene = build_demo_scene(args.output.parent / "demo_data")
         else:
-            try:
-                bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
-            except RuntimeError as exc:  # truncated or damaged: Blender's own words
-                raise BTFError(
-                    f"{args.blend}: Blender cannot open it ({_report_text(str(exc))})"
-                ) from None
+            open_blend(bpy, args.blend)
             scene = bpy.context.scene
         if args.stereo:
             return _render_stereo(bpy, scene, args)
@@ -313,7 +295,7 @@ def cmd_render(args) -> int:
             try:
                 bpy.ops.render.render(write_still=True)
             except RuntimeError as exc:  # the engine's ERROR reports, e.g. a compile error
-                raise BTFError(_report_text(str(exc))) from None
+                raise BTFError(report_text(str(exc))) from None
             finally:
                 _after_interrupt(output, before)
             seconds = time.perf_counter() - t0
@@ -386,13 +368,6 @@ def _render_stereo(bpy, scene, args) -> int:
         f"-> {', '.join(str(p) for p in written)}"
     )
     return 0
-
-
-def _report_text(text: str) -> str:
-    """Blender's "Error: …" reports of a failed render, each once (the engine both sets the
-    render's error and reports it)."""
-    reports = [r.strip() for r in text.split("Error: ") if r.strip()]
-    return "\n".join(dict.fromkeys(reports))
 
 
 def describe(settings: RenderSettings) -> str:
