@@ -30,12 +30,8 @@ def render_glsl(
 def _render(engine, exported, settings, w, h, transparent):
     try:
         device = ModernGLDevice()
-    except RuntimeError as exc:  # no usable EGL/OpenGL on this machine
-        engine.report(
-            {"ERROR"},
-            f"GLSL fallback: {exc}. Install Mesa's EGL and DRI drivers (Debian/Ubuntu: "
-            "libegl1 libegl-mesa0 libgl1-mesa-dri) or a GPU driver; nothing rendered",
-        )
+    except RuntimeError as exc:  # no usable EGL/OpenGL on this machine (what to install)
+        engine.report({"ERROR"}, f"GLSL fallback: {exc}; nothing rendered")
         return None
     try:
         drawer = ProgressiveDrawer(device, exported)

@@ -12,9 +12,16 @@ import sys
 import numpy as np
 
 from ..core.codecs.packed import pack
+from ..core.errors import DeviceError
 from ..core.model import BTF, DelegatingBTF, Queries
 from . import host_context
 from .interface import QUERY_SHADER, ShaderCompileError
+
+#: What to install where no EGL context can be made (a DeviceError: exit 2, fixable).
+EGL_ADVICE = (
+    "Install Mesa's EGL and DRI drivers (Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 "
+    "libgl1-mesa-dri) or a GPU driver"
+)
 
 QUERY_TILE = 1024  # queries per row of the query textures / render target
 
@@ -43,7 +50,7 @@ def create_gl_context():
     try:
         ctx = moderngl.create_standalone_context(**backend)
     except Exception as exc:  # glcontext raises plain Exceptions
-        raise RuntimeError(f"no headless OpenGL context through EGL ({exc})") from None
+        raise DeviceError(f"no headless OpenGL context through EGL ({exc}). {EGL_ADVICE}") from None
     host_context.mark_ours()
     return ctx
 

@@ -177,6 +177,19 @@ def test_cli_commands_that_draw_exit_0(blend, tmp_path):
     assert accuracy.returncode == 0, _explain(accuracy)
 
 
+def test_a_stereo_capture_without_egl_says_what_to_install(tmp_path):
+    """Issue 30 item 12: the stereo capture draws through EGL only; without it the command
+    said "internal error" (exit 1). Now a fixable error naming the packages (exit 2)."""
+    proc = run_cli(
+        "render", "--demo", "--stereo", "generic-2016x2240", "--eye-width", "32", "--lights",
+        "4", "-o", tmp_path / "pair.png", check=False,
+        env=cli_env(__EGL_VENDOR_LIBRARY_FILENAMES=str(tmp_path / "none.json")),
+    )  # fmt: skip
+    assert proc.returncode == 2, _explain(proc)
+    assert "no headless OpenGL context" in proc.stderr and "libegl-mesa0" in proc.stderr
+    assert "internal error" not in proc.stderr and not (tmp_path / "pair.png").exists()
+
+
 def test_no_usable_egl_is_a_message_and_exit_2(tmp_path):
     """glvnd with no vendor library: no EGL display at all. With no OpenCL either, F12 falls
     back to the GLSL path, which cannot run: a message, exit 2, and no abort."""
