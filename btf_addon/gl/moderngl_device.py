@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.errors import DeviceError
 from .device import DrawState
 from .interface import ShaderInterface
 from .query import compile_program, create_gl_context, make_current
@@ -107,12 +108,34 @@ class ModernGLDevice:
         return _Vertices(vao, buffer)
 
     def target(self, width: int, height: int, fmt: str, depth: bool) -> _Target:
+        """DeviceError (exit 2: a smaller size works) for a side beyond the driver's texture
+        limit, checked before anything is allocated, or a target the driver then refuses
+        (llvmpipe takes no texture over 1 GiB, whatever its 16384-pixel limit says)."""
         dtype, np_dtype = _TARGET_DTYPES[fmt]
+        if max(width, height) > self.max_texture_size:
+            raise DeviceError(
+                f"{width}×{height} is larger than the OpenGL driver's {self.max_texture_size} "
+                "pixels per side; choose a smaller size"
+            )
         self._activate()
-        colour = self.ctx.texture((width, height), 4, dtype=dtype)
-        depth_tex = self.ctx.depth_texture((width, height)) if depth else None
-        fbo = self.ctx.framebuffer(color_attachments=[colour], depth_attachment=depth_tex)
-        return _Target(colour, depth_tex, fbo, np_dtype)
+        made = []
+        try:
+            made.append(self.ctx.texture((width, height), 4, dtype=dtype))
+            if depth:
+                made.append(self.ctx.depth_texture((width, height)))
+            fbo = self.ctx.framebuffer(
+                color_attachments=[made[0]], depth_attachment=made[1] if depth else None
+            )
+        except Exception as exc:  # moderngl.Error: out of memory, an incomplete framebuffer
+            for texture in made:
+                texture.release()
+            size = width * height * 4 * np.dtype(np_dtype).itemsize
+            raise DeviceError(
+                f"the OpenGL driver ({self.ctx.info.get('GL_RENDERER', '?')}) refuses a "
+                f"{width}×{height} {fmt} image ({size / 2**30:.1f} GiB: {exc}); choose a "
+                "smaller size"
+            ) from None
+        return _Target(made[0], made[1] if depth else None, fbo, np_dtype)
 
     def target_texture(self, target: _Target):
         return target.colour
