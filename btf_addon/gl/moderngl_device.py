@@ -75,6 +75,14 @@ class ModernGLDevice:
         self._programs: dict[str, _Program] = {}
         # Checked before a BTF's tables are uploaded (core/codecs/gpu_fit.py).
         self.max_texture_size = int(self.ctx.info["GL_MAX_TEXTURE_SIZE"])
+        # The largest side an image drawn into may have (``target``): the texture, renderbuffer
+        # and viewport limits together.
+        viewport = self.ctx.info.get("GL_MAX_VIEWPORT_DIMS", (self.max_texture_size,) * 2)
+        self.max_target_size = min(
+            self.max_texture_size,
+            int(self.ctx.info.get("GL_MAX_RENDERBUFFER_SIZE", self.max_texture_size)),
+            *(int(v) for v in viewport),
+        )
 
     def _activate(self) -> None:
         make_current(self.ctx)
@@ -112,9 +120,9 @@ class ModernGLDevice:
         limit, checked before anything is allocated, or a target the driver then refuses
         (llvmpipe takes no texture over 1 GiB, whatever its 16384-pixel limit says)."""
         dtype, np_dtype = _TARGET_DTYPES[fmt]
-        if max(width, height) > self.max_texture_size:
+        if max(width, height) > self.max_target_size:
             raise DeviceError(
-                f"{width}×{height} is larger than the OpenGL driver's {self.max_texture_size} "
+                f"{width}×{height} is larger than the OpenGL driver's {self.max_target_size} "
                 "pixels per side; choose a smaller size"
             )
         self._activate()

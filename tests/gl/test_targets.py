@@ -26,7 +26,7 @@ def test_a_side_beyond_the_drivers_limit_is_refused_before_allocation(device, mo
     monkeypatch.setattr(
         device.ctx, "texture", lambda *a, **k: allocated.append(a) or real_texture(*a, **k)
     )
-    device.max_texture_size = 64
+    device.max_target_size = 64
     with pytest.raises(DeviceError, match="65×10 is larger than the OpenGL driver's 64 pixels"):
         ViewAccumulation(device, 65, 10)
     assert allocated == []
