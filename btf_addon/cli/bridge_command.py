@@ -126,7 +126,11 @@ def cmd_bridge(args) -> int:
         print(f"note: {message}", file=sys.stderr)
     # BridgeError (its exit codes) and Ctrl-C (130) end at the CLI's one boundary (cli/main.py);
     # the session and the context are released on the way out.
-    status = run_bridge(scene, render_settings, settings, args.frames, vr_controls())
+    from .main import raise_if_interrupted
+
+    status = run_bridge(
+        scene, render_settings, settings, args.frames, vr_controls(), raise_if_interrupted
+    )
     fps = f"{status.fps:.1f}" if status.fps is not None else "n/a"
     w, h = status.eye_size
     print(f"runtime: {status.runtime}")

@@ -35,6 +35,7 @@ import logging
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -474,16 +475,21 @@ def run_bridge(
     settings: BridgeSettings,
     frames: int | None = None,
     controls: ControlMap | None = None,
+    stop_check: Callable[[], None] | None = None,
 ) -> BridgeStatus:
     """Start, run ``frames`` submitted frames (None: until the runtime ends the session),
     ask the runtime to end the session, let it end cleanly, close. Controller edits
-    (``controls``) are logged at INFO. Returns the last status; raises BridgeError
+    (``controls``) are logged at INFO. ``stop_check``: called after every frame, raises to
+    stop (the CLI's re-raises a Ctrl-C or SIGTERM that a callback in the runtime or the driver
+    swallowed); the bridge closes either way. Returns the last status; raises BridgeError
     subclasses."""
     bridge = XRBridge(scene, render_settings, settings, controls)
     bridge.start()
     started, stop_asked = time.monotonic(), None
     try:
         while bridge.run_frame():
+            if stop_check is not None:
+                stop_check()
             for edit in bridge.pop_edits():  # nothing applies them here: logged (CLI -v)
                 log.info("controller: %s", edit)
             if frames is not None and bridge.frames >= frames and stop_asked is None:

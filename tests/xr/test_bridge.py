@@ -455,3 +455,36 @@ def test_set_scene_keeps_the_unchanged_uploads(xr_runtime, rng):
         assert all(before[eye] > 1 for eye in ("left", "right"))
     finally:
         bridge.close()
+
+
+def test_a_stop_check_ends_the_run_and_closes_the_session(xr_runtime, rng, monkeypatch):
+    """Issue 30 item 2: a Ctrl-C swallowed inside a frame (a ctypes callback, the driver) was
+    lost and the run went on to its last frame. run_bridge asks its ``stop_check`` after every
+    frame: the CLI passes cli/main.py ``raise_if_interrupted``, which re-raises a recorded
+    signal; the bridge closes the session on the way out."""
+    import signal
+
+    from btf_addon.cli import main as cli_main
+    from btf_addon.xr import bridge as bridge_module
+
+    script(xr_runtime)
+    closed, frames_seen = [], []
+    real_close = bridge_module.XRBridge.close
+
+    def close(self):
+        closed.append(self.frames)
+        return real_close(self)
+
+    def stop_check():
+        frames_seen.append(1)
+        if len(frames_seen) == 3:  # the signal arrived during frame 3 and was swallowed there
+            cli_main.signals_received.append(signal.SIGINT)
+        cli_main.raise_if_interrupted()
+
+    monkeypatch.setattr(bridge_module.XRBridge, "close", close)
+    monkeypatch.setattr(cli_main, "signals_received", [])
+    with pytest.raises(KeyboardInterrupt):
+        bridge_module.run_bridge(
+            small_scene(rng), RenderSettings(), settings(), frames=50, stop_check=stop_check
+        )
+    assert len(frames_seen) == 3 and closed and closed[0] <= 3
