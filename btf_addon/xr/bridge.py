@@ -409,10 +409,11 @@ class XRBridge:
             self._status = status
 
     def _capture(self, info) -> None:
-        from .capture import write_eye
+        from .capture import write_frame
 
         session = self.session
         near, far = self.near_far()
+        eyes = []
         for index, (name, located) in enumerate(zip(EYES, info.views, strict=True)):
             eye = self.eyes[index]
             view = eye.view
@@ -445,7 +446,8 @@ class XRBridge:
                 "format": session.format,
                 "values_from": self.status.values_from,
             }
-            write_eye(Path(self.settings.capture_dir), self.frames, name, view.read(), meta)
+            eyes.append((name, view.read(), meta))
+        write_frame(Path(self.settings.capture_dir), self.frames, eyes)
 
     def close(self) -> None:
         """Release everything in reverse order (idempotent; safe after a failed start)."""

@@ -19,6 +19,7 @@ and eye ``e`` (``left``/``right``):
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -27,16 +28,33 @@ from ..core.fileio import atomic_write
 from ..core.formats.imageio import write_exr
 
 
-def write_eye(directory: Path, frame: int, eye: str, image: np.ndarray, meta: dict) -> Path:
-    """``image``: (h, w, 4) float32 linear RGBA, row 0 at the BOTTOM (OpenGL's readback).
-    Writes the EXR and the JSON (``meta`` plus ``frame``, ``eye``, ``image``); returns the
-    JSON's path."""
+def write_frame(directory: Path, frame: int, eyes: list[tuple[str, np.ndarray, dict]]) -> None:
+    """Both eyes of one frame, whole or not at all: ``eyes`` holds per eye its name, the image
+    ((h, w, 4) float32 linear RGBA, row 0 at the BOTTOM, OpenGL's readback) and ``meta`` (the
+    JSON gets ``frame``, ``eye`` and ``image`` too). Every file is first written under a
+    staging name, then all are renamed; an interrupt or error anywhere removes what this
+    frame had written, so a check never finds a left eye without its right, or an EXR without
+    its JSON."""
     directory.mkdir(parents=True, exist_ok=True)
-    stem = f"frame_{frame:05d}_{eye}"
-    exr = write_exr(directory / f"{stem}.exr", np.ascontiguousarray(image[::-1, :, :3]))
-    record = {"frame": frame, "eye": eye, **meta, "image": exr.name}
-    text = json.dumps(_plain(record), indent=1).encode()
-    return atomic_write(directory / f"{stem}.json", lambda f: f.write(text))
+    staged: list[tuple[Path, Path]] = []
+    placed: list[Path] = []
+    try:
+        for eye, image, meta in eyes:
+            stem = f"frame_{frame:05d}_{eye}"
+            exr, js = directory / f"{stem}.exr", directory / f"{stem}.json"
+            record = {"frame": frame, "eye": eye, **meta, "image": exr.name}
+            text = json.dumps(_plain(record), indent=1).encode()
+            staged.append((directory / f".{stem}.staged.exr", exr))
+            write_exr(staged[-1][0], np.ascontiguousarray(image[::-1, :, :3]))
+            staged.append((directory / f".{stem}.staged.json", js))
+            atomic_write(staged[-1][0], lambda f, text=text: f.write(text))
+        for tmp, final in staged:
+            os.replace(tmp, final)
+            placed.append(final)
+    except BaseException:
+        for path in [*(tmp for tmp, _ in staged), *placed]:
+            path.unlink(missing_ok=True)
+        raise
 
 
 def _plain(value):
