@@ -11,9 +11,11 @@ private 0600.
 
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import re
+import secrets
 import socket
 import tempfile
 from collections.abc import Callable
@@ -131,12 +133,22 @@ def check_output(path: str | Path) -> Path:
 def _atomic(path: Path, write: Callable[[Path, BinaryIO], None]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)
-    # The suffix is kept last: np.save/np.savez and some image writers look at it.
-    fd, name = tempfile.mkstemp(
-        prefix=temp_prefix(path), suffix=".tmp" + path.suffix, dir=path.parent
-    )
-    tmp = Path(name)
+    tmp: Path | None = None
     try:
+        # The temporary's name is chosen before the file is made, inside the ``try``: a Ctrl-C
+        # or SIGTERM the moment it exists still finds the cleanup below knowing its name
+        # (mkstemp's name arrives only after the file exists; another thread may take the
+        # signal, so holding signals back in this one would not close that gap).
+        flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+        for _ in range(100):
+            tmp = temporary_name(path)
+            try:
+                fd = os.open(tmp, flags, 0o600)  # private until its mode is set below
+                break
+            except FileExistsError:
+                tmp = None  # another writer's (2^-64 per try): never ours to remove
+        else:
+            raise FileExistsError(errno.EEXIST, "no free temporary file name", str(path))
         os.chmod(fd if os.chmod in os.supports_fd else tmp, 0o666 & ~current_umask())
         with os.fdopen(fd, "r+b") as fh:
             write(tmp, fh)
@@ -144,12 +156,20 @@ def _atomic(path: Path, write: Callable[[Path, BinaryIO], None]) -> Path:
             os.fsync(fh.fileno())  # what was written by name is the same inode: synced too
         os.replace(tmp, path)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         if exc.filename in (None, str(tmp), tmp):
             # A full disk or a refused rename: say the output, not our temporary name.
             raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
         raise
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def temporary_name(path: Path) -> Path:
+    """A fresh temporary name beside ``path``: ``temp_prefix`` + random + ``.tmp`` + the suffix
+    (kept last: np.save/np.savez and some image writers look at it)."""
+    return path.parent / f"{temp_prefix(path)}{secrets.token_hex(8)}.tmp{path.suffix}"

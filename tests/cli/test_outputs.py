@@ -71,3 +71,34 @@ def test_a_full_disk_names_the_output_and_leaves_no_temporary(tmp_path):
         atomic_write(out, full)
     assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(out)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_signal_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monkeypatch):
+    """Issue 30 item 15: a SIGTERM between creating the temporary file and entering the
+    cleanup left a 0-byte temporary. The signal here lands the moment mkstemp returns; it is
+    handled inside the cleanup's reach, which knows the name before the file exists."""
+    import os
+    import signal
+
+    class TerminatedError(Exception):
+        pass
+
+    def on_term(signum, frame):
+        raise TerminatedError
+
+    real_open = os.open
+
+    def open_then_signal(name, *args, **kwargs):
+        made = real_open(name, *args, **kwargs)
+        if ".tmp" in str(name):  # the temporary now exists; its creator has not returned yet
+            os.kill(os.getpid(), signal.SIGTERM)
+        return made
+
+    previous = signal.signal(signal.SIGTERM, on_term)
+    monkeypatch.setattr(os, "open", open_then_signal)
+    try:
+        with pytest.raises(TerminatedError):
+            atomic_write(tmp_path / "v.npy", lambda fh: fh.write(b"x"))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert list(tmp_path.iterdir()) == []
