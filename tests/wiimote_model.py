@@ -4,7 +4,14 @@ whose replies must follow the driver's actual requests (a recording cannot: its 
 fixed times). It keeps a memory map (EEPROM calibration, IR and extension registers), acks
 writes, answers reads (error 8 where nothing is mapped), sends a status report on 0x15 and on
 extension hot-plug, and data reports in the mode last set with 0x12, at 100 Hz, from a script
-of button states. Time is simulated: ``read`` advances it, nothing sleeps."""
+of button states. Like the device (WiiBrew, "Status Reporting"), it forgets its reporting mode
+whenever it sends a status report and sends no data until the next 0x12; a read that finds
+nothing to send returns None and still advances time by one report interval. Time is
+simulated: ``read`` advances it, nothing sleeps.
+
+Faults: ``short_status_at_s`` sends a truncated status report (id and buttons only) at that
+time; ``lose_mode_at_s`` forgets the mode with no report at all (its status report lost);
+``deaf_from_s`` ignores every output report from then on."""
 
 from __future__ import annotations
 
@@ -16,11 +23,25 @@ NUNCHUK_CAL = bytes.fromhex("80808000b3b3b300e02080e020800000")
 
 
 class WiimoteModel:
-    def __init__(self, script, *, end_s: float, nunchuk_at_s: float | None = None) -> None:
+    def __init__(
+        self,
+        script,
+        *,
+        end_s: float,
+        nunchuk_at_s: float | None = None,
+        unplug_at_s: float | None = None,
+        short_status_at_s: float | None = None,
+        lose_mode_at_s: float | None = None,
+        deaf_from_s: float | None = None,
+    ) -> None:
         """``script``: [(t, buttons_hex, stick_xy_bytes or None)], the state from t on."""
         self.script = sorted(script)
         self.end_s = end_s
         self.nunchuk_at_s = nunchuk_at_s
+        self.unplug_at_s = unplug_at_s
+        self.short_status_at_s = short_status_at_s
+        self.lose_mode_at_s = lose_mode_at_s
+        self.deaf_from_s = deaf_from_s
         self.t = 0.0
         self.next_data_t = 0.01
         self.mode: int | None = None
@@ -63,6 +84,8 @@ class WiimoteModel:
     # -------------------------------------------------------------- transport
     def write(self, data: bytes) -> None:
         self.written.append(bytes(data))
+        if self.deaf_from_s is not None and self.t >= self.deaf_from_s:
+            return
         rid = data[0]
         if rid == 0x11:
             self.leds = data[1] >> 4
@@ -93,21 +116,46 @@ class WiimoteModel:
                     bytes((0x21,)) + self._buttons() + se + low + payload.ljust(16, b"\0")
                 )
 
+    def _next_slot(self) -> None:
+        """The next report interval (a status report takes a data report's place)."""
+        self.t = self.next_data_t
+        self.next_data_t = round(self.next_data_t + 0.01, 6)
+
+    def _send_status(self, report: bytes) -> bytes:
+        self.mode = None  # the device's reset on every status report
+        return report
+
     def read(self, timeout_s: float) -> bytes | None:
         if self.outbox:
             self.t += 0.001
-            return self.outbox.popleft()
+            report = self.outbox.popleft()
+            return self._send_status(report) if report[0] == 0x20 else report
         if self.nunchuk_at_s is not None and not self.nunchuk_plugged:
             if self.next_data_t >= self.nunchuk_at_s:
                 self.nunchuk_plugged = True
-                self.t = self.nunchuk_at_s
-                return self._status()  # the Wiimote reports a hot-plug with 0x20
+                self.nunchuk_at_s = None
+                self._next_slot()
+                return self._send_status(self._status())  # a hot-plug is reported with 0x20
+        if self.unplug_at_s is not None and self.nunchuk_plugged:
+            if self.next_data_t >= self.unplug_at_s:
+                self.nunchuk_plugged = self.nunchuk_ready = False
+                self.unplug_at_s = None
+                self._next_slot()
+                return self._send_status(self._status())
+        if self.short_status_at_s is not None and self.next_data_t >= self.short_status_at_s:
+            self.short_status_at_s = None
+            self._next_slot()
+            return self._send_status(bytes((0x20,)) + self._buttons())
+        if self.lose_mode_at_s is not None and self.next_data_t >= self.lose_mode_at_s:
+            self.lose_mode_at_s = None
+            self.mode = None
         if self.next_data_t > self.end_s:
             from btf_addon.controllers.transport import ControllerDisconnectedError
 
             raise ControllerDisconnectedError("the model's script ended")
-        self.t = self.next_data_t
-        self.next_data_t = round(self.next_data_t + 0.01, 6)
+        self._next_slot()
+        if self.mode is None:
+            return None
         if self.mode != 0x37:
             return bytes((0x30,)) + self._buttons()
         _, stick = self._state()

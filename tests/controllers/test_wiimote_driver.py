@@ -12,10 +12,13 @@ from wiimote_streams import (
     START_OUTPUT,
     STATUS_EXTENSION,
     STATUS_NO_EXTENSION,
+    pad,
     records,
     report_0x37,
 )
 
+from btf_addon.controllers.actions import Action
+from btf_addon.controllers.controls import Controls
 from btf_addon.controllers.replay import ReplayTransport
 from btf_addon.controllers.transport import ControllerDisconnectedError
 from btf_addon.controllers.wiimote.buttons import Button
@@ -194,18 +197,116 @@ def test_write_error_and_rumble_bit():
     assert written(transport)[-1] == "1110"
 
 
-def test_reply_before_its_request_is_kept_for_that_request():
-    # A hand-written stream may answer the Nunchuk identity before the calibration read (still
-    # pending in this driver) is done: the reply is kept and answers the identity read later.
+def test_reply_before_its_request_is_dropped_and_the_read_answered_by_its_own_reply():
+    # Replies the driver has not asked for yet (the identity and Nunchuk calibration while the
+    # accelerometer calibration read is in flight) are dropped; the reads sent later are
+    # answered only by the replies that follow them.
     stream = records(
         (0.00, STATUS_EXTENSION),
-        (0.02, NUNCHUK_ID_REPLY),  # early: the driver has not asked yet
+        (0.02, NUNCHUK_ID_REPLY),  # early: dropped
         (0.03, NUNCHUK_CAL_REPLY),  # early too
-        (0.05, CALIBRATION_REPLY),  # now the calibration read completes, the queue moves on
+        (0.05, CALIBRATION_REPLY),  # the calibration read completes, the identity read goes out
+        (0.06, report_0x37(ext="e0 80 80 80 b3 03")),
+    )
+    wiimote, _, samples = run(stream)
+    assert wiimote.calibrated and wiimote.extension is None  # the identity read still waits
+    assert samples[-1].nunchuk is None
+    stream += records(
+        (0.07, NUNCHUK_ID_REPLY),
+        (0.08, NUNCHUK_CAL_REPLY),
         (0.10, report_0x37(ext="e0 80 80 80 b3 03")),
     )
     wiimote, _, samples = run(stream)
-    assert wiimote.calibrated and wiimote.extension == "nunchuk"
+    assert wiimote.extension == "nunchuk"
     assert samples[-1].nunchuk.stick == pytest.approx((1.0, 0.0))
     assert samples[-1].nunchuk.calibrated
-    assert not [e for e in wiimote.events if e.kind == "timeout"]
+    assert not [e for e in wiimote.events if e.kind in ("timeout", "error")]
+
+
+def test_stray_read_replies_never_answer_a_later_read():
+    # Issue 30 item 11: a late error reply at 0x00FA (an identity read long timed out) came
+    # before a Nunchuk was plugged in; kept, it failed the new identity read ("unknown", dead
+    # stick). A reply at the awaited offset but of another size is not the read's either.
+    stream = records(
+        (0.00, STATUS_NO_EXTENSION),
+        *four_acks(0.005),
+        (0.01, CALIBRATION_REPLY),
+        (0.10, pad("21 0000 08 00fa", 22)),  # error 8 at 0x00FA: no read in flight
+        (0.60, STATUS_EXTENSION),  # plugged in 0.5 s later
+        (0.61, ACK_WRITE),
+        (0.62, ACK_WRITE),
+        (0.625, pad("21 0000 f0 00fa" + "11" * 16, 22)),  # 16 bytes at 0x00FA: not the 6 asked
+        (0.63, NUNCHUK_ID_REPLY),
+        (0.64, NUNCHUK_CAL_REPLY),
+        (0.70, report_0x37(ext="e0 80 80 80 b3 03")),
+    )
+    wiimote, _, samples = run(stream)
+    assert wiimote.extension == "nunchuk"
+    assert samples[-1].nunchuk.stick == pytest.approx((1.0, 0.0))
+    assert not [e for e in wiimote.events if e.kind in ("timeout", "error")]
+
+
+def test_error_reply_to_the_read_in_flight_is_reported():
+    stream = records(
+        (0.00, STATUS_EXTENSION),
+        (0.01, CALIBRATION_REPLY),
+        (0.02, ACK_WRITE),
+        (0.03, ACK_WRITE),
+        (0.04, pad("21 0000 08 00fa", 22)),  # the identity read fails
+        (0.05, report_0x37()),
+    )
+    wiimote, transport, _ = run(stream)
+    assert wiimote.extension == "unknown"
+    assert [e.kind for e in wiimote.events].count("error") == 1
+    assert "1704a400200010" not in written(transport)  # no calibration read for an unknown
+
+
+def test_short_status_report_resends_the_mode_and_gives_its_buttons():
+    # Issue 30 item 9: any 0x20, even one cut short, means the Wiimote reset its reporting mode.
+    stream = records(
+        (0.00, CALIBRATION_REPLY),
+        (0.01, report_0x37()),
+        (0.02, "20 0008"),  # keys only (A held)
+        (0.03, "20"),  # nothing but the id
+        (0.04, report_0x37(buttons="0008")),
+    )
+    wiimote, transport, samples = run(stream)
+    assert [(s.t, s.buttons) for s in samples] == [
+        (0.0, 0),
+        (0.01, 0),
+        (0.02, Button.A),
+        (0.04, Button.A),
+    ]
+    resent = [r.t for r in transport.written[len(START_OUTPUT) :]]
+    assert written(transport)[len(START_OUTPUT) :] == ["120437", "120437"]
+    assert resent == [0.02, 0.03]  # at once, for each
+    assert [e.kind for e in wiimote.events].count("truncated") == 2
+    assert wiimote.battery is None  # a short report has no battery byte
+
+
+def test_unplug_status_sample_carries_no_nunchuk_state():
+    # Issue 30 item 10: the sample of the unplug status report must not keep C held and the
+    # stick deflected until the next data report.
+    stream = records(
+        (0.00, STATUS_NO_EXTENSION),
+        *four_acks(0.005),
+        (0.01, CALIBRATION_REPLY),
+        (0.50, STATUS_EXTENSION),
+        (0.51, ACK_WRITE),
+        (0.52, ACK_WRITE),
+        (0.53, NUNCHUK_ID_REPLY),
+        (0.54, NUNCHUK_CAL_REPLY),
+        (0.60, report_0x37(ext="e0 80 80 80 b3 01")),  # stick full right, C held
+        (0.70, "20 0000 10 0000 64"),  # unplugged
+        (0.71, ACK_WRITE),  # any later non-data report: still no Nunchuk
+        (0.80, report_0x37()),
+    )
+    _, _, samples = run(stream)
+    assert next(s for s in samples if s.t == 0.60).nunchuk.c
+    assert [s.nunchuk for s in samples if s.t >= 0.70] == [None, None, None]
+    controls = Controls()
+    edits = controls.step(0.80, samples) + controls.finish(0.80)
+    zoom = sum(e.amount for e in edits if e.action is Action.ZOOM_IN)
+    orbit = sum(e.amount for e in edits if e.action is Action.ORBIT_CAMERA)
+    assert zoom == pytest.approx(0.1)  # C held 0.60 → 0.70 at 1 stop/s
+    assert orbit == pytest.approx(6.0)  # full right 0.60 → 0.70 at 60°/s

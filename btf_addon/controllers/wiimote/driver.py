@@ -15,10 +15,16 @@ Connection sequence (what a recording of this driver shows, in order):
 block 1 → 0x04B00000, block 2 → 0x04B0001A, mode → 0x04B00033; basic mode 1 with 0x37),
 4. 0x12 ``12 04 37`` (IR on) or ``12 04 35`` (IR off): continuous reporting with accelerometer,
 IR and extension bytes, 5. 0x17 read of 8 bytes at EEPROM 0x0016 (accelerometer calibration).
-After every 0x20 status report the driver re-sends that 0x12 at once (the Wiimote stops data
-reports after a status report). When a status report says an extension appeared: write 0x55 to
-0x04A400F0, 0x00 to 0x04A400FB, read 6 bytes at 0x04A400FA (identity) and, for a Nunchuk,
-16 bytes at 0x04A40020 (calibration). When it says the extension left, the Nunchuk is dropped.
+After every 0x20 status report, a truncated one included (the Wiimote resets its reporting mode
+whenever it sends one and reports no data until told again; the kernel's hid-wiimote re-sends
+the mode for its 2-byte-payload form too), the driver re-sends that 0x12 at once. If no data
+report comes for WATCHDOG_S of transport time after ``start()`` (a lost 0x20 would otherwise
+silence the Wiimote for good), it re-sends the 0x12 and requests status, at most once per
+WATCHDOG_S. When a status report says an extension appeared: write 0x55 to 0x04A400F0, 0x00 to
+0x04A400FB, read 6 bytes at 0x04A400FA (identity) and, for a Nunchuk, 16 bytes at 0x04A40020
+(calibration). When it says the extension left, the Nunchuk is dropped at once: that status
+report's sample and every later one carry no Nunchuk state. A read reply that is not the next
+one the read in flight awaits (its offset and size) is dropped, never kept for a later read.
 """
 
 from __future__ import annotations
@@ -34,7 +40,9 @@ from .reports import ReportError
 
 log = logging.getLogger(__name__)
 
-EARLY_REPLY_S = 5.0  # how long a read reply that came before its request is kept
+# Data comes at ~100 Hz in continuous mode, so half a second without any is no gap in the stream
+# but a Wiimote that lost its reporting mode.
+WATCHDOG_S = 0.5
 
 
 @dataclass(frozen=True)
@@ -106,7 +114,8 @@ class Wiimote:
         self.events: list[DriverEvent] = []
         self._queue: deque[_Operation] = deque()
         self._writes: deque[_Operation] = deque()  # sent writes awaiting their 0x22 ack
-        self._early: dict[int, tuple[float, memory.ReadReply]] = {}  # offset → (t, reply)
+        # Time of the last data report or watchdog request; None until start(): no data expected.
+        self._quiet_since: float | None = None
         self._last = Sample(0.0, 0)
         self.pending: list[Sample] = []  # the samples of a poll that ended in a disconnect
         if ir_sensitivity not in ir.SENSITIVITY:
@@ -133,9 +142,6 @@ class Wiimote:
             self._send(op.report)
             op.sent_at = self.transport.now()
             if op.wait == "read":
-                early = self._early.pop(op.address & 0xFFFF, None)
-                if early is not None and op.sent_at - early[0] <= EARLY_REPLY_S:
-                    self._on_read_reply(early[1])  # completes op and pumps on
                 return
             self._queue.popleft()
             if op.wait == "ack":
@@ -174,6 +180,7 @@ class Wiimote:
         self._send(reports.reporting_mode_report(self.mode))
 
     def start(self) -> None:
+        self._quiet_since = self.transport.now()
         self._send(reports.leds_report(self.leds))
         self._send(reports.status_request_report())
         if self.ir_enabled:
@@ -254,6 +261,22 @@ class Wiimote:
                 self._event("timeout", f"no reply to {op.what} within {self.timeout_s} s")
                 self._finish(op, None)
 
+    def check_watchdog(self) -> None:
+        """Re-send the reporting mode and request status when no data report has come for
+        WATCHDOG_S since the last data report or the last such request (so at most once per
+        WATCHDOG_S however often it is called)."""
+        if self._quiet_since is None:
+            return
+        now = self.transport.now()
+        if now - self._quiet_since < WATCHDOG_S:
+            return
+        self._quiet_since = now
+        self._event(
+            "watchdog", f"no data report for {WATCHDOG_S} s: reporting mode re-sent, status asked"
+        )
+        self.send_reporting_mode()
+        self._send(reports.status_request_report())
+
     # ------------------------------------------------------------------ input
     def handle(self, report: bytes) -> Sample | None:
         """Process one input report (at the transport's ``now()``); a Sample when it carried
@@ -267,18 +290,32 @@ class Wiimote:
         if need is None:
             self._event("unknown", f"unknown report id {rid:#04x} ignored")
             return None
+        if rid in reports.DATA_MODES and self._quiet_since is not None:
+            self._quiet_since = t  # even a truncated one: the Wiimote is reporting
         if len(report) < (6 if rid == reports.READ_REPLY else need):
-            self._event("truncated", f"report {rid:#04x} with {len(report)} bytes ignored")
-            return None
-        try:
-            sample = self._dispatch(t, rid, report)
-        except (ReportError, ValueError) as exc:
-            self._event("truncated", f"report {rid:#04x}: {exc}")
-            return None
+            if rid != reports.STATUS:
+                self._event("truncated", f"report {rid:#04x} with {len(report)} bytes ignored")
+                return None
+            sample = self._short_status(t, report)
+        else:
+            try:
+                sample = self._dispatch(t, rid, report)
+            except (ReportError, ValueError) as exc:
+                self._event("truncated", f"report {rid:#04x}: {exc}")
+                return None
         self.check_timeouts()
         if sample is not None:
             self._last = sample
         return sample
+
+    def _short_status(self, t: float, report: bytes) -> Sample | None:
+        """A truncated 0x20 still reset the Wiimote's reporting mode; its flags and battery are
+        missing, so the extension state stays as it was."""
+        self._event("truncated", f"status report with {len(report)} bytes: reporting mode re-sent")
+        self.send_reporting_mode()
+        if len(report) < 3:
+            return None
+        return replace(self._last, t=t, buttons=parse_buttons(report[1:3]))
 
     def _dispatch(self, t: float, rid: int, report: bytes) -> Sample | None:
         payload = report[1:]
@@ -293,7 +330,10 @@ class Wiimote:
                 self._extension_plugged = False
                 self.extension = None
                 self._event("extension-removed", "the extension was unplugged")
-            return replace(self._last, t=t, buttons=status.buttons)
+            # Until the next data report, samples are built from this one: a Nunchuk state kept
+            # here would hold a released C/Z or stick after the Nunchuk is gone.
+            nunchuk_state = self._last.nunchuk if self.extension == "nunchuk" else None
+            return replace(self._last, t=t, buttons=status.buttons, nunchuk=nunchuk_state)
         if rid == reports.ACK:
             ack = reports.parse_ack(report)
             if ack.report == memory.WRITE_MEMORY and self._writes:
@@ -312,14 +352,17 @@ class Wiimote:
         return self._data_report(t, rid, payload)
 
     def _on_read_reply(self, reply: memory.ReadReply) -> None:
-        """Match a 0x21 to the read in flight by its address. A reply no read asked for yet is
-        kept for EARLY_REPLY_S: a device never sends one, but a recording written by hand may
-        order a reply before the request this driver sends later (e.g. the Nunchuk identity
-        while the calibration read is still pending); it then answers that read when sent."""
+        """Match a 0x21 to the read in flight: the next chunk it awaits, by offset and size (an
+        error reply by offset: its size field says nothing). Anything else (the late reply to a
+        read that timed out, a reply in another address space with the same low 16 bits) is
+        dropped: replies carry only 16 address bits and no request id, so one kept for later
+        could answer a different read, as a late error at 0x00FA once failed the identity of a
+        Nunchuk plugged in afterwards."""
         head = self._queue[0] if self._queue else None
         if head is not None and head.wait == "read" and head.sent_at is not None:
             expected = (head.address + len(head.received)) & 0xFFFF
-            if reply.offset == expected:
+            chunk = min(16, head.size - len(head.received))
+            if reply.offset == expected and (reply.error or len(reply.data) == chunk):
                 if reply.error:
                     self._event("error", f"{head.what} failed with error {reply.error}")
                     self._finish(head, None)
@@ -328,8 +371,12 @@ class Wiimote:
                 if len(head.received) >= head.size:
                     self._finish(head, bytes(head.received[: head.size]))
                 return
-        self._early[reply.offset] = (self.transport.now(), reply)
-        self._event("unexpected", f"read reply at {reply.offset:#06x} before its request: kept")
+        log.debug(
+            "wiimote: read reply at %#06x (%d bytes, error %d) matches no read in flight: dropped",
+            reply.offset,
+            len(reply.data),
+            reply.error,
+        )
 
     def _data_report(self, t: float, rid: int, payload: bytes) -> Sample:
         if rid == 0x3D:  # extension bytes only
@@ -375,7 +422,10 @@ class Wiimote:
         for i in range(max_reports):
             report = self.transport.read(timeout_s if i == 0 else 0.0)
             if report is None:
+                # Only a read that found nothing can tell silence; a replayed recording's gaps
+                # between reports it does return are not.
                 self.check_timeouts()
+                self.check_watchdog()
                 break
             sample = self.handle(report)
             if sample is not None:
