@@ -22,7 +22,13 @@ class BTFRenderEngine(bpy.types.RenderEngine):
     bl_use_shading_nodes_custom = False
 
     def render(self, depsgraph):
-        final_render.render(self, depsgraph)
+        try:
+            final_render.render(self, depsgraph)
+        except KeyboardInterrupt:
+            # Ctrl-C or SIGTERM of a command-line render: Blender would print the traceback of
+            # an exception leaving this callback and carry on. The command's handler recorded
+            # the signal and ends the run (cli/render_command.py _after_interrupt).
+            self.report({"WARNING"}, "render interrupted")
 
     def update_render_passes(self, scene=None, renderlayer=None):
         """Passes this engine writes, shown in the compositor when enabled on the view layer."""

@@ -12,10 +12,9 @@ import sys
 import time
 from pathlib import Path
 
-from ..core.errors import BTFError
 from ..render.accuracy.ladder import describe_rung, run, verify_recommendation
 from ..render.accuracy.report import to_json, write_json, write_report
-from .blend_file import check_blend, open_blend
+from .blend_file import check_blend, import_bpy, open_blend
 
 DESCRIPTION = """\
 Estimate what accuracy costs in time for a .blend's camera view: every quality knob that
@@ -126,10 +125,7 @@ class ProgressBar:
 def cmd_accuracy(args) -> int:
     check_blend(args.blend)  # before Blender starts
     target = args.target if args.target is not None or args.budget is not None else 0.02
-    try:
-        import bpy
-    except ImportError:
-        raise BTFError("the estimate needs Blender's bpy module (pip install bpy==5.0.1)") from None
+    bpy = import_bpy("the estimate")
     from ..blender.accuracy.run import prepare
     from .render_command import _engine_registered
 

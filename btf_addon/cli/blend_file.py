@@ -1,6 +1,7 @@
-"""The one way a command opens a .blend (``render``, ``bridge``, ``accuracy``): refused before
-Blender starts when it cannot be one, and a file Blender cannot read (truncated, damaged) a
-clear error naming it, in Blender's words, never an internal error."""
+"""The one way a command starts Blender and opens a .blend (``render``, ``bridge``,
+``accuracy``): Blender imported with interrupts held until its start-up is done, a file that
+cannot be a .blend refused before Blender starts, and one Blender cannot read (truncated,
+damaged) a clear error naming it, in Blender's words, never an internal error."""
 
 from __future__ import annotations
 
@@ -10,6 +11,21 @@ from ..core.errors import BTFError
 
 #: How a .blend starts: plain, gzip-compressed (Blender < 3.0) or zstd-compressed (3.0+).
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
+
+
+def import_bpy(purpose: str):
+    """Blender's module, imported whole: a Ctrl-C or SIGTERM during its start-up waits until
+    the start-up is done (a half-started Blender segfaulted on exit), then stops the command."""
+    from .main import signals_held
+
+    with signals_held():
+        try:
+            import bpy
+        except ImportError:
+            raise BTFError(
+                f"{purpose} needs Blender's bpy module (pip install bpy==5.0.1)"
+            ) from None
+    return bpy
 
 
 def check_blend(path: Path) -> None:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..core.errors import BTFError
 from ..render.headsets import PROFILES
-from .blend_file import check_blend, open_blend
+from .blend_file import check_blend, import_bpy, open_blend
 
 DESCRIPTION = """\
 Run the XTAL bridge on a .blend's active scene against the OpenXR runtime the loader finds
@@ -149,12 +149,7 @@ def cmd_bridge(args) -> int:
 def export_blend(path: Path) -> tuple:
     """Open ``path`` in Blender and export its active scene (plain arrays) and render
     settings, with the add-on registered as ``render --blend`` registers it."""
-    try:
-        import bpy
-    except ImportError:
-        raise BTFError(
-            "opening a .blend needs Blender's bpy module (pip install bpy==5.0.1)"
-        ) from None
+    bpy = import_bpy("opening a .blend")
     from .render_command import _engine_registered
 
     with _engine_registered(bpy):

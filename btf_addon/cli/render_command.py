@@ -25,7 +25,7 @@ from ..gl.stereo_capture import LAYOUTS, capture_profile
 from ..render.headsets import PROFILES, profile
 from ..render.pixel_filter import FilterType, PixelFilter
 from ..render.settings import FinalMode, Lighting, RenderSettings
-from .blend_file import check_blend, open_blend, report_text
+from .blend_file import check_blend, import_bpy, open_blend, report_text
 
 #: Output suffix → Blender image settings: 8-bit RGBA PNG (through the view transform) or
 #: 32-bit float RGBA EXR (scene-linear values).
@@ -185,7 +185,6 @@ def _at_least(low: int):
     return parse
 
 
-#: How a .blend starts: plain, gzip- or zstd-compressed (Blender writes all three).
 def _after_interrupt(output: Path, before: int | None) -> None:
     """Ctrl-C or SIGTERM during F12 raises inside the engine's render callback, which Blender
     reports and then saves what was drawn: remove that image and end as interrupted."""
@@ -270,10 +269,7 @@ def cmd_render(args) -> int:
     _check_stereo_flags(args)
     if args.resolution is not None:  # known before Blender starts: refuse a size up front
         _check_memory(*args.resolution, args.lights or 0)
-    try:
-        import bpy
-    except ImportError:
-        raise BTFError("rendering needs Blender's bpy module (pip install bpy==5.0.1)") from None
+    bpy = import_bpy("rendering")
     from ..blender.sync import frame_size
 
     with _engine_registered(bpy) as package:
@@ -458,11 +454,15 @@ def _engine_registered(bpy):
     if engine is not None:  # its copy's blender/addon.py knows the copy's package name
         yield sys.modules[engine.__module__.rpartition(".")[0] + ".addon"].ADDON_PACKAGE
         return
-    blender.register()
+    from .main import signals_held
+
+    with signals_held():  # half-registered classes crash Blender on the way out
+        blender.register()
     try:
         yield ADDON_PACKAGE
     finally:
-        blender.unregister()
+        with signals_held():
+            blender.unregister()
 
 
 @contextmanager
