@@ -175,6 +175,10 @@ def test_cli_commands_that_draw_exit_0(blend, tmp_path):
         "--reference-samples", "8", check=False,
     )  # fmt: skip
     assert accuracy.returncode == 0, _explain(accuracy)
+    # Issue 30 item 18: Blender asked for a GPU context it did not need and EGL printed
+    # EGL_BAD_MATCH while probing configs; neither command draws through Blender's context.
+    for proc in (stereo, accuracy):
+        assert "EGL Error" not in proc.stdout + proc.stderr, _explain(proc)
 
 
 def test_a_stereo_capture_without_egl_says_what_to_install(tmp_path):
