@@ -149,3 +149,14 @@ def test_render_panel_says_which_device_renders(bpy_module, fresh_scene):
         assert device[0] == f"F12 device: {used[0]['label']}", layout.labels
     else:
         assert "none builds" in device[0], layout.labels
+
+
+def test_film_panel_has_transparent(bpy_module, fresh_scene):
+    """Issue 32 item 1: F12 honours ``render.film_transparent`` and the guide says Film ›
+    Transparent works, but no panel shown for this engine drew it."""
+    bpy = bpy_module
+    scene = bpy.context.scene
+    film = extension_submodule("btf_addon.blender.ui.film").BTF_PT_film
+    context = SimpleNamespace(engine=ENGINE, scene=scene)
+    assert film.poll(context)
+    assert (scene.render, "film_transparent") in draw(film, context).props

@@ -1,4 +1,4 @@
-"""Our Film panel: the pixel filter F12 and the viewport's jitter follow.
+"""Our Film panel: Transparent, and the pixel filter F12 and the viewport's jitter follow.
 
 The filter is the scene's, as Cycles keeps it (``scene.cycles.pixel_filter_type`` and
 ``filter_width``), so switching the engine between BTF and Cycles keeps one film. Without the
@@ -34,6 +34,9 @@ class BTF_PT_film(Panel):
         settings = scene.btf_render
         layout = self.layout
         layout.use_property_split = True
+        # F12 honours it (alpha 0 where the camera sees the World); Cycles draws it in its own
+        # Film panel, which this engine does not show.
+        layout.prop(scene.render, "film_transparent", text="Transparent")
         col = layout.column()
         col.active = settings.use_antialiasing
         cycles = getattr(scene, "cycles", None)
