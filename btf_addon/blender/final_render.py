@@ -25,7 +25,9 @@ from ..cl.renderer import KERNELS, CLRenderer, program_defines
 from ..core.errors import BTFError
 from ..render.lighting import frame_lights
 from ..scene.analysis import analyse
+from ..scene.scene import Camera
 from .export import export_scene
+from .export.camera import export_camera
 from .glsl_fallback import render_glsl
 from .paths import missing_message, missing_sources, with_error_colour
 from .preferences import MISSING_FAIL, missing_source_behaviour, opencl_help, preferred_device
@@ -115,11 +117,45 @@ def render(engine, depsgraph) -> None:
             f"(no shadows); no Depth/Normal/UV passes. {advice}".rstrip(),
         )
         last_device = "GLSL fallback (no OpenCL device that builds)"
-        combined = render_glsl(engine, exported, settings, w, h, transparent)
-        if combined is not None:  # None: it failed and reported why
-            write_result(engine, depsgraph.view_layer, region, {"Combined": combined})
+        for view in view_names(engine):
+            exported.camera = view_camera(engine, scene, w, h, view)
+            combined = render_glsl(engine, exported, settings, w, h, transparent)
+            if combined is None:  # it failed and reported why
+                return
+            write_result(engine, depsgraph.view_layer, region, {"Combined": combined}, view)
         return
     last_device = f"OpenCL on {renderer.ctx.device_name}"
+    views = view_names(engine)
+    for i, view in enumerate(views):
+        renderer.scene.camera = view_camera(engine, scene, w, h, view)
+        if not _render_view(engine, depsgraph, renderer, settings, region, transparent, view,
+                            (i, len(views))):  # fmt: skip
+            return  # Esc: the views drawn so far stay
+
+
+def view_names(engine) -> list[str]:
+    """The views Blender asks for: "" without Stereoscopy, else each view of Output ›
+    Stereoscopy (left/right, or every view of Multi-View), in the result's order."""
+    return [view.name for view in engine.get_result().views] or [""]
+
+
+def view_camera(engine, scene, w: int, h: int, view: str) -> Camera:
+    """The camera of one view: Blender moves and shifts each eye of a stereo camera by its
+    Stereoscopy settings (convergence mode, interocular distance, pivot); ask it, as Cycles
+    does, rather than repeat its rules here."""
+    if not view:
+        return export_camera(scene, w, h)
+    engine.active_view_set(view)
+    camera = scene.camera
+    spherical = engine.use_spherical_stereo(camera)
+    matrix = np.array(engine.camera_model_matrix(camera, use_spherical_stereo=spherical))
+    shift_x = engine.camera_shift_x(camera, use_spherical_stereo=spherical)
+    return export_camera(scene, w, h, view=(matrix, shift_x))
+
+
+def _render_view(engine, depsgraph, renderer, settings, region, transparent, view, index) -> bool:
+    """One view's passes into its result; False when the user stopped the render."""
+    exported = renderer.scene
     cam = exported.camera
     lights = frame_lights(settings, exported, cam.world_from_camera[:3, 2])
     sampled = settings.sampled
@@ -132,18 +168,23 @@ def render(engine, depsgraph) -> None:
     if film is not None:
         aa = "" if sampled else f" × {settings.aa_samples} subpixels"
         lighting += f", {film.type.replace('_', '-').title()} {film.width:g} px{aa}"
+    which = f" | {view} view" if view else ""
     stats = (
-        f"BTF | OpenCL on {renderer.ctx.device_name} | {renderer.triangle_count} triangles, "
-        f"{lighting}, {len(exported.lights)} Blender lights, "
+        f"BTF | OpenCL on {renderer.ctx.device_name}{which} | {renderer.triangle_count} "
+        f"triangles, {lighting}, {len(exported.lights)} Blender lights, "
         f"shadows {'on' if renderer.features.shadows else 'off (none possible)'}"
     )
     engine.update_stats("", stats)
     started = time.perf_counter()
+    done, count = index
+    stopped = False
 
     def progress(fraction: float) -> bool:
-        engine.update_progress(fraction)
+        nonlocal stopped
+        engine.update_progress((done + fraction) / count)
         engine.update_stats("", f"{stats} | {fraction:.0%}, {time.perf_counter() - started:.1f} s")
-        return not engine.test_break()
+        stopped = stopped or engine.test_break()
+        return not stopped
 
     view_layer = depsgraph.view_layer
     for enabled, name, channels, chan_id in (
@@ -151,9 +192,9 @@ def render(engine, depsgraph) -> None:
         (view_layer.use_pass_normal, "Normal", 3, "XYZ"),
         (view_layer.use_pass_uv, "UV", 3, "UVA"),
     ):
-        if enabled:  # passes must exist before the result is created
+        if enabled and done == 0:  # passes must exist before the first result is created
             engine.add_pass(name, channels, chan_id, layer=view_layer.name)
-    result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name)
+    result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name, view=view)
     layer = result.layers[0]
     check_result_size(layer, region)
 
@@ -172,6 +213,7 @@ def render(engine, depsgraph) -> None:
     # Blender's buffers: bottom row first.
     set_passes(layer, region, {name: image[::-1] for name, image in top_first.items()})
     engine.end_result(result)
+    return not stopped
 
 
 def check_result_size(layer, region: Region) -> None:
@@ -191,9 +233,9 @@ def set_pass(render_pass, region: Region, bottom_first: np.ndarray) -> None:
     render_pass.rect = np.ascontiguousarray(pixels).reshape(region.w * region.h, -1)
 
 
-def write_result(engine, view_layer, region: Region, bottom_first: dict) -> None:
-    """One result with the given whole-frame passes (row 0 at the bottom)."""
-    result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name)
+def write_result(engine, view_layer, region: Region, bottom_first: dict, view: str = "") -> None:
+    """One result (of ``view``) with the given whole-frame passes (row 0 at the bottom)."""
+    result = engine.begin_result(0, 0, region.w, region.h, layer=view_layer.name, view=view)
     layer = result.layers[0]
     check_result_size(layer, region)
     set_passes(layer, region, bottom_first)

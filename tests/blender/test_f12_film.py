@@ -198,3 +198,66 @@ def test_transparent_film_and_region_on_the_glsl_fallback(
     region = rgba(render(bpy, scene))
     # The same shaders draw the same frame: equal to float rounding of two draws (1e-6).
     np.testing.assert_allclose(region, full[rows, cols], atol=1e-6)
+
+
+def _stereo(scene, interocular: float = 0.5) -> None:
+    """Output › Stereoscopy on, eyes side by side in parallel, the camera between them."""
+    stereo = scene.camera.data.stereo
+    stereo.convergence_mode, stereo.pivot = "PARALLEL", "CENTER"
+    stereo.interocular_distance = interocular
+    scene.render.use_multiview = True
+    scene.render.views_format = "STEREO_3D"
+
+
+@pytest.mark.parametrize("engine", ["opencl", "glsl"])
+def test_stereo_f12_renders_each_eye_as_its_own_camera(
+    bpy_module, fresh_scene, tmp_path, engine, monkeypatch
+):
+    """Issue 32 item 2: with Stereoscopy on, F12 filled one view only (an empty left image or
+    half). Each view must equal a plain F12 from a camera where Blender puts that eye: parallel
+    eyes, pivot in the middle: ± half the interocular distance along the camera's x."""
+    bpy = bpy_module
+    final_render = extension_submodule("btf_addon.blender.final_render")
+    if engine == "glsl":
+        context = extension_submodule("btf_addon.cl.context")
+
+        def unavailable(_index=None):
+            raise context.OpenCLUnavailableError("no OpenCL platform found (test)")
+
+        monkeypatch.setattr(final_render, "create_context", unavailable)
+    scene = tiny_scene(bpy, tmp_path)
+    scene.render.film_transparent = True  # alpha shows where each eye sees the sphere
+    _stereo(scene)
+    scene.render.image_settings.views_format = "INDIVIDUAL"
+    bpy.ops.render.render(write_still=True)
+    views = {eye: rgba(read_rgba_exr(tmp_path / f"f12_{eye}.exr")) for eye in "LR"}
+    scene.render.use_multiview = False
+    for eye, side in (("L", -1.0), ("R", 1.0)):
+        scene.camera.location = (side * 0.25, -5.0, 0.0)  # the camera's x is the world's x
+        single = rgba(render(bpy, scene))
+        assert (single[..., 3] > 0).sum() > 50, "the sphere is in view"
+        # The same renderer from a camera matrix Blender composes in float32 either way:
+        # equal to float32 rounding of the image values.
+        np.testing.assert_allclose(views[eye], single, atol=2e-6, err_msg=eye)
+    assert final_render.last_device.startswith("GLSL" if engine == "glsl" else "OpenCL")
+    disparity = np.abs(views["L"][..., 3] - views["R"][..., 3]).sum()
+    assert disparity > 2, "the eyes see the sphere from 0.5 apart"
+
+
+def test_stereo_f12_side_by_side_has_both_eyes(bpy_module, fresh_scene, tmp_path):
+    bpy = bpy_module
+    scene = tiny_scene(bpy, tmp_path)
+    _stereo(scene)
+    scene.render.image_settings.views_format = "INDIVIDUAL"
+    bpy.ops.render.render(write_still=True)
+    views = {eye: rgba(read_rgba_exr(tmp_path / f"f12_{eye}.exr")) for eye in "LR"}
+    scene.render.image_settings.views_format = "STEREO_3D"
+    scene.render.image_settings.stereo_3d_format.display_mode = "SIDEBYSIDE"
+    scene.render.image_settings.stereo_3d_format.use_sidebyside_crosseyed = False
+    scene.render.filepath = str(tmp_path / "sbs.exr")
+    bpy.ops.render.render(write_still=True)
+    pair = rgba(read_rgba_exr(tmp_path / "sbs.exr"))
+    assert pair.shape[1] == 2 * W, pair.shape
+    assert (pair[:, :W, 3] == 1).all() and (pair[:, W:, 3] == 1).all()  # both halves drawn
+    np.testing.assert_array_equal(pair[:, :W], views["L"])
+    np.testing.assert_array_equal(pair[:, W:], views["R"])

@@ -21,13 +21,18 @@ def fits_width(sensor_fit: str, aspect: float) -> bool:
     return sensor_fit == "HORIZONTAL"
 
 
-def export_camera(scene, width: int, height: int) -> Camera:
-    """``scene.camera`` seen at ``width`` × ``height`` pixels. Raises BTFError without one."""
+def export_camera(
+    scene, width: int, height: int, view: tuple[np.ndarray, float] | None = None
+) -> Camera:
+    """``scene.camera`` seen at ``width`` × ``height`` pixels. Raises BTFError without one.
+    ``view``: one view of a stereo camera, as Blender's render engine gives it (its model
+    matrix and horizontal shift, ``RenderEngine.camera_model_matrix``/``camera_shift_x``)."""
     cam_obj = scene.camera
     if cam_obj is None:
         raise BTFError("the scene has no camera: add one (Add > Camera) and make it active")
     cam = cam_obj.data
-    m = np.array(cam_obj.matrix_world, dtype=np.float64)
+    matrix, shift_x = view if view is not None else (cam_obj.matrix_world, cam.shift_x)
+    m = np.array(matrix, dtype=np.float64)
     m[:3, :3] /= np.linalg.norm(m[:3, :3], axis=0)  # drop object scale: a camera has none
     aspect = width / height
     horizontal = fits_width(cam.sensor_fit, aspect)
@@ -35,7 +40,7 @@ def export_camera(scene, width: int, height: int) -> Camera:
     sensor = cam.sensor_width if horizontal or cam.sensor_fit == "AUTO" else cam.sensor_height
     # Blender measures shift in units of the sensor-fit dimension; Camera in the larger one.
     shift_factor = (aspect if horizontal else 1.0) / max(aspect, 1.0)
-    shift = (cam.shift_x * shift_factor, cam.shift_y * shift_factor)
+    shift = (shift_x * shift_factor, cam.shift_y * shift_factor)
     if cam.type == "ORTHO":
         larger = (
             cam.ortho_scale
