@@ -91,16 +91,47 @@ def upgrade_on_load(filepath: str = "", *_args) -> None:
     """load_post: upgrade a saved file (the startup file, with no path, is new: current
     defaults are its defaults). The version itself is stamped on save only, so opening an
     up-to-date file leaves it unmodified."""
+    upgraded.clear()
     if not bpy.data.filepath:
         return
     version = file_version()
     if version < SETTINGS_VERSION:
         done = upgrade(version)
         if done:
-            print(
+            upgraded.extend(done)
+            _report(
                 f"BTF: {bpy.data.filepath} has settings version {version}; kept its look by "
                 f"setting the old defaults: {'; '.join(done)}"
             )
+
+
+#: What the last file load upgraded ('block.group.prop = value'), shown by the render panel
+#: until another file is loaded.
+upgraded: list[str] = []
+
+
+def _report(message: str) -> None:
+    """Into Blender's reports (the status bar and Info editor; stdout in background) through
+    an operator, the only thing that can report. A load_post handler runs before the window is
+    ready for them, so with a UI the report waits for the next event loop turn."""
+    if bpy.app.background:
+        bpy.ops.btf.report_upgrade(message=message)
+    else:
+        bpy.app.timers.register(lambda: bpy.ops.btf.report_upgrade(message=message) and None)
+
+
+class BTF_OT_report_upgrade(bpy.types.Operator):
+    """Say what opening an older file changed"""
+
+    bl_idname = "btf.report_upgrade"
+    bl_label = "Report BTF Settings Upgrade"
+    bl_options = {"INTERNAL"}
+
+    message: bpy.props.StringProperty()
+
+    def execute(self, context):
+        self.report({"INFO"}, self.message)
+        return {"FINISHED"}
 
 
 @persistent
@@ -116,6 +147,7 @@ def register() -> None:
         options={"HIDDEN"},
         description="Version of the BTF settings this file was saved with (upgraded on load)",
     )
+    bpy.utils.register_class(BTF_OT_report_upgrade)
     bpy.app.handlers.load_post.append(upgrade_on_load)
     bpy.app.handlers.save_pre.append(stamp_on_save)
 
@@ -123,4 +155,5 @@ def register() -> None:
 def unregister() -> None:
     bpy.app.handlers.save_pre.remove(stamp_on_save)
     bpy.app.handlers.load_post.remove(upgrade_on_load)
+    bpy.utils.unregister_class(BTF_OT_report_upgrade)
     del bpy.types.Scene.btf_settings_version

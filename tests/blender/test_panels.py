@@ -160,3 +160,25 @@ def test_film_panel_has_transparent(bpy_module, fresh_scene):
     context = SimpleNamespace(engine=ENGINE, scene=scene)
     assert film.poll(context)
     assert (scene.render, "film_transparent") in draw(film, context).props
+
+
+def test_material_panel_warns_while_its_source_is_missing(bpy_module, fresh_scene, tmp_path):
+    """Issue 32 item 6: the panel showed nothing while its source was missing (only F12 or
+    File › External Data › Report Missing said so)."""
+    bpy = bpy_module
+    material = bpy.data.materials.new("M")
+    material.btf.enabled = True
+    material.btf.source = str(tmp_path / "gone.btfm")
+    btf_panel = extension_submodule("btf_addon.blender.ui.btf_panels").BTF_PT_material
+    context = SimpleNamespace(engine=ENGINE, material=material)
+    labels = draw(btf_panel, context).labels
+    assert any("gone.btfm" in t and "no such file" in t for t in labels), labels
+    (tmp_path / "gone.btfm").write_bytes(b"not a container")  # there, but cannot load
+    with pytest.raises(Exception):
+        extension_submodule("btf_addon.blender.export.materials").load_cached(
+            material.btf.source
+        )
+    labels = draw(btf_panel, context).labels
+    assert any("gone.btfm" in t for t in labels), labels
+    material.btf.enabled = False
+    assert not [t for t in draw(btf_panel, context).labels if t]

@@ -94,3 +94,46 @@ def test_a_version_0_file_renders_as_it_did(bpy_module, installed, tmp_path):
     assert then.shape == now.shape == (24, 32, 3)
     assert np.ptp(then) > 0.3  # a lit, textured plane, not an empty frame
     np.testing.assert_allclose(now, then, rtol=0, atol=1e-4 * then.max())
+
+
+def test_the_upgrade_is_reported_and_shown_in_the_render_panel(
+    bpy_module, installed, tmp_path, capfd
+):
+    """Issue 32 item 6: the upgrade was a print on the console only. It is a Blender report
+    (stdout in background, the status bar with a UI) and a box in the render panel until the
+    next file is loaded."""
+    from types import SimpleNamespace
+
+    bpy = bpy_module
+    versioning = extension_submodule("btf_addon.blender.versioning")
+    panels = extension_submodule("btf_addon.blender.ui.btf_panels")
+    open_v0(bpy, tmp_path)
+    out = capfd.readouterr().out
+    assert "Info: BTF:" in out and "kept its look" in out, out[-2000:]
+    assert versioning.upgraded
+
+    labels = []
+
+    class Layout:
+        use_property_split = False
+
+        def label(self, text="", **_kw):
+            labels.append(text)
+
+        def prop(self, *_a, **_kw):
+            pass
+
+        def operator(self, *_a, **_kw):
+            return SimpleNamespace()
+
+        def _child(self, *_a, **_kw):
+            return self
+
+        row = column = box = _child
+
+    context = SimpleNamespace(engine="BTF_RENDER", scene=bpy.context.scene)
+    panels.BTF_PT_render_settings.draw(SimpleNamespace(layout=Layout()), context)
+    assert any(t.startswith("Opened from an older version") for t in labels), labels
+    assert set(versioning.upgraded) <= set(labels)
+    bpy.ops.wm.read_homefile(use_empty=True)  # another file: the note goes
+    assert not versioning.upgraded

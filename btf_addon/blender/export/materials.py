@@ -40,13 +40,35 @@ def file_key(path: str) -> BTFFileKey:
     return BTFFileKey(str(resolved), resolved.stat().st_mtime if resolved.exists() else -1.0)
 
 
+#: Why the last load of a source failed, by the same key: the material panel shows it without
+#: loading anything while it draws.
+_load_failures: dict[BTFFileKey, str] = {}
+
+
 def load_cached(path: str) -> BTF:
     """The BTF at ``path`` (Blender's "//" relative paths allowed), loaded once per version."""
     key = file_key(path)
     resolved = Path(key.path)
     if key not in _btf_cache:
-        _btf_cache[key] = load_btf(resolved)
+        try:
+            _btf_cache[key] = load_btf(resolved)
+        except (BTFError, OSError, ValueError) as exc:
+            _load_failures[key] = str(exc)
+            raise
+        _load_failures.pop(key, None)
     return _btf_cache[key]
+
+
+def known_problem(path: str) -> str:
+    """Why ``path`` cannot render, as far as is known without loading it: no source, a path
+    that does not exist, or the error of its last load at this version; '' otherwise. Cheap
+    enough for a panel's draw (one stat)."""
+    if not path:
+        return "BTF enabled but no source set"
+    key = file_key(path)
+    if key.mtime < 0:
+        return f"{key.path}: no such file or folder"
+    return _load_failures.get(key, "")
 
 
 class ExportedMaterial(NamedTuple):

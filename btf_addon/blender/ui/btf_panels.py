@@ -6,7 +6,9 @@ import bpy
 from bpy.types import Panel
 
 from ...render.settings import FinalMode, Lighting, RenderSettings
+from .. import versioning
 from ..addon import ENGINE_ID
+from ..export.materials import known_problem
 
 
 class BTF_PT_material(Panel):
@@ -33,6 +35,11 @@ class BTF_PT_material(Panel):
         col = layout.column()
         col.active = settings.enabled
         col.prop(settings, "source")
+        if settings.enabled:
+            # What F12 would report, before an F12: the path is gone, or its last load failed.
+            problem = known_problem(settings.source)
+            if problem:
+                layout.label(text=problem, icon="ERROR")
         col.prop(settings, "exposure")
 
 
@@ -68,6 +75,11 @@ class BTF_PT_render_settings(Panel):
         col.prop(settings, "btf_importance_sampling")
         layout.prop(settings, "fixed_launch_split")
         draw_device(layout)
+        if versioning.upgraded:  # the file was saved by an older version: say what it kept
+            box = layout.box()
+            box.label(text="Opened from an older version; kept its look by setting:", icon="INFO")
+            for line in versioning.upgraded:
+                box.label(text=line)
 
 
 def draw_device(layout) -> None:
