@@ -23,6 +23,13 @@ def _tag_material(settings, _context) -> None:
     settings.id_data.update_tag()
 
 
+def _tile_size_changed(settings, context) -> None:
+    """An edit of the tile size is the user's own number from now on (Import sets the origin
+    back to "assumed" after it writes its guess)."""
+    settings.tile_size_origin = "SET"
+    _tag_material(settings, context)
+
+
 def _source_changed(settings, context) -> None:
     """A file picked inside a BTFbase material folder means the folder (the browser of a
     FILE_PATH property picks files): store the folder, then tag as any other change."""
@@ -126,14 +133,33 @@ class BTFMaterialSettings(PropertyGroup):
         "(UV mapping: from the mesh's UV density); UV Scale then multiplies it",
     )
     tile_size_mm: FloatVectorProperty(
-        update=_tag_material,
+        update=_tile_size_changed,
         name="Tile Size (mm)",
         size=2,
         default=(0.0, 0.0),
         min=0.0,
         soft_max=1000.0,
         description="Physical size of one BTF tile (u, v) in millimetres; 0 = the size the "
-        "BTF file states (unknown for BTFbase: Import asks for it)",
+        "BTF file states (BTFbase states none: Import assumes one from its texel size)",
+    )
+    #: Where a non-zero tile_size_mm came from, for the Mapping panel: Import's assumption
+    #: (BTFbase states no size) or the user's edit. Files from before it: UNKNOWN.
+    tile_size_origin: EnumProperty(
+        name="Tile Size Origin",
+        items=(
+            ("UNKNOWN", "Unknown", "Set before the add-on recorded where sizes come from"),
+            ("ASSUMED", "Assumed on Import", "Import's texel size times the BTF's texels"),
+            ("SET", "Set by You", "Edited on this material"),
+        ),
+        default="UNKNOWN",
+        options={"HIDDEN"},
+    )
+    assumed_texel_mm: FloatProperty(
+        name="Assumed Texel Size (mm)",
+        default=0.0,
+        min=0.0,
+        options={"HIDDEN"},
+        description="The texel size Import assumed for this material's tile size",
     )
     uv_offset: FloatVectorProperty(
         update=_tag_material,

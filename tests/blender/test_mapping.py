@@ -122,8 +122,16 @@ def test_mapping_panel_states_the_tile_on_the_active_object(bpy_module, fresh_sc
     context = SimpleNamespace(material=cube.active_material, object=cube, scene=bpy.context.scene)
     panel.draw(stub, context)
     assert {"mapping", "texel_filter", "use_real_world_size", "tile_size_mm"} <= set(layout.props)
-    assert "Tile 16 × 16 mm (set on this material)" in layout.labels
+    # Issue 32 item 5: BTFbase states no size; the panel says the number is Import's guess.
+    assert "Tile 16 × 16 mm (assumed on import: 0.25 mm per texel)" in layout.labels
+    assert any(t.startswith("The source states no size") for t in layout.labels)
     assert "1 tile ≈ 16 mm on Cube" in layout.labels
+    cube.active_material.btf.tile_size_mm = (20.0, 20.0)  # measured: the user's number now
+    layout.labels.clear()
+    panel.draw(stub, context)
+    assert "Tile 20 × 20 mm (set by you)" in layout.labels
+    assert not any(t.startswith("The source states no size") for t in layout.labels)
+    cube.active_material.btf.tile_size_mm = (16.0, 16.0)
     cube.active_material.btf.uv_scale = 2.0  # twice the repeats: half the tile
     layout.labels.clear()
     panel.draw(stub, context)

@@ -99,6 +99,8 @@ def place_on(material, btf: BTF, objects, texel_mm: float = DEFAULT_TEXEL_MM) ->
     settings.texel_filter = "LINEAR"
     if btf.meta.tile_size_mm is None:
         settings.tile_size_mm = (texel_mm * btf.meta.width, texel_mm * btf.meta.height)
+        settings.tile_size_origin = "ASSUMED"  # after the edit, which marks it as the user's
+        settings.assumed_texel_mm = texel_mm
 
 
 class CreatedMaterial(NamedTuple):

@@ -47,11 +47,19 @@ def mesh_units_per_uv(obj, uv_name: str = "") -> float | None:
     return _density_cache[key]
 
 
+#: How the panel names where a material's own tile size came from.
+ORIGINS = {
+    "ASSUMED": lambda s: f"assumed on import: {s.assumed_texel_mm:g} mm per texel",
+    "SET": lambda _s: "set by you",
+    "UNKNOWN": lambda _s: "set on this material",
+}
+
+
 def stated_size(settings) -> tuple[tuple[float, float] | None, str]:
     """The tile size in use and where it came from, for the panel."""
     size = tuple(settings.tile_size_mm)
     if min(size) > 0.0:
-        return (float(size[0]), float(size[1])), "set on this material"
+        return (float(size[0]), float(size[1])), ORIGINS[settings.tile_size_origin](settings)
     if not settings.source:
         return None, "no BTF source"
     try:
@@ -98,7 +106,13 @@ class BTF_PT_material_mapping(Panel):
                 text=f"Tile size unknown ({origin}): set it to use real-world size", icon="ERROR"
             )
         else:
-            col.label(text=f"Tile {size[0]:g} × {size[1]:g} mm ({origin})", icon="INFO")
+            assumed = settings.tile_size_origin == "ASSUMED" and min(settings.tile_size_mm) > 0
+            col.label(
+                text=f"Tile {size[0]:g} × {size[1]:g} mm ({origin})",
+                icon="QUESTION" if assumed else "INFO",
+            )
+            if assumed:
+                col.label(text="The source states no size: measure your sample, set it above")
         if settings.mapping == "UV":
             layout.prop(settings, "uv_map")
         else:
