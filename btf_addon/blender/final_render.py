@@ -111,11 +111,7 @@ def render(engine, depsgraph) -> None:
             advice = " ".join(opencl_help().splitlines())
         else:  # OpenCL is there; this scene's data is what it cannot take
             why, advice = f"The OpenCL final render cannot take this scene ({exc})", ""
-        engine.report(
-            {"WARNING"},
-            f"{why}; rendering with the GLSL viewport path instead "
-            f"(no shadows); no Depth/Normal/UV passes. {advice}".rstrip(),
-        )
+        engine.report({"WARNING"}, fallback_warning(why, advice))
         last_device = "GLSL fallback (no OpenCL device that builds)"
         for view in view_names(engine):
             exported.camera = view_camera(engine, scene, w, h, view)
@@ -131,6 +127,14 @@ def render(engine, depsgraph) -> None:
         if not _render_view(engine, depsgraph, renderer, settings, region, transparent, view,
                             (i, len(views))):  # fmt: skip
             return  # Esc: the views drawn so far stay
+
+
+def fallback_warning(why: str, advice: str) -> str:
+    """F12's one warning when it draws with the GLSL path (quoted in the user guide)."""
+    return (
+        f"{why}; rendering with the GLSL viewport path instead (no shadows); no "
+        f"Depth/Normal/UV passes. {advice}".rstrip()
+    )
 
 
 def view_names(engine) -> list[str]:
