@@ -69,6 +69,10 @@ def real_messages(tmp_path) -> list[str]:
     final_render = extension_submodule("btf_addon.blender.final_render")
     programs = extension_submodule("btf_addon.cl.programs")
     mapping = extension_submodule("btf_addon.blender.ui.mapping")
+    compress = extension_submodule("btf_addon.blender.tools.compress")
+    encoded = tmp_path / "alu.btfm"
+    encoded.write_bytes(bytes(120_000))
+    alu = SimpleNamespace(meta=SimpleNamespace(width=64, height=64))
     loose = tmp_path / "table.txt"
     loose.write_text("1 2 3\n")
     missing = paths.MissingSource("Wool", "//btf/wool", "//btf/wool: no such file or folder")
@@ -80,6 +84,7 @@ def real_messages(tmp_path) -> list[str]:
         final_render.compile_error_message(compile_error),
         final_render.fallback_warning("OpenCL unavailable (no platform)", ""),
         mapping.ORIGINS["ASSUMED"](SimpleNamespace(assumed_texel_mm=0.1)),
+        compress.summary(encoded, alu, "MLVQ", (38.2, 0.951), 12.0),
     ]
 
 
