@@ -59,14 +59,20 @@ def add_parser(sub) -> None:
         help="target relative RMSE (default 0.02 without --budget)",
     )
     p.add_argument(
+        "--quick",
+        action="store_true",
+        help="the quick estimate (Blender's default): the scene's own mode and its samples or "
+        "lights only, a smaller preview and reference (--size 96, --reference-samples 256, "
+        "--reference-bounces 4 unless given)",
+    )
+    p.add_argument(
         "--size",
         type=_positive(int),
-        default=160,
         metavar="PIXELS",
-        help="longest side of the reduced render (default 160)",
+        help="longest side of the reduced render (default 160; --quick: 96)",
     )
-    p.add_argument("--reference-samples", type=_positive(int), default=1024, metavar="N")
-    p.add_argument("--reference-bounces", type=_non_negative_int, default=8, metavar="N")
+    p.add_argument("--reference-samples", type=_positive(int), metavar="N", help="default 1024")
+    p.add_argument("--reference-bounces", type=_non_negative_int, metavar="N", help="default 8")
     p.add_argument("--device", type=int, metavar="N", help="OpenCL device index (`doctor`)")
     p.set_defaults(func=cmd_accuracy)
 
@@ -122,27 +128,41 @@ class ProgressBar:
             self.stream.write("\n")
 
 
+class FullSizes:
+    """The full estimate's preview and reference (the command's defaults)."""
+
+    longest = 160
+    reference_samples = 1024
+    reference_bounces = 8
+
+
 def cmd_accuracy(args) -> int:
     check_blend(args.blend)  # before Blender starts
     target = args.target if args.target is not None or args.budget is not None else 0.02
     bpy = import_bpy("the estimate")
-    from ..blender.accuracy.run import prepare
+    from ..blender.accuracy.run import QuickSizes, prepare
     from .render_command import _engine_registered
+
+    sizes = QuickSizes if args.quick else FullSizes
+
+    def given(value, default):
+        return default if value is None else value
 
     folder = args.output.resolve()
     with _engine_registered(bpy):
         open_blend(bpy, args.blend)
         estimate, rungs, renderer = prepare(
             bpy.context.evaluated_depsgraph_get(),
-            args.size,
+            given(args.size, sizes.longest),
             args.device,
-            args.reference_samples,
-            args.reference_bounces,
+            given(args.reference_samples, sizes.reference_samples),
+            given(args.reference_bounces, sizes.reference_bounces),
+            quick=args.quick,
         )
     pw, ph = estimate.preview_size
     fw, fh = estimate.full_size
     print(
-        f"{len(rungs)} rungs + reference at {pw}x{ph} (full {fw}x{fh}) on {estimate.device}; "
+        f"{len(rungs)} settings + reference at {pw}x{ph} (full {fw}x{fh}) on {estimate.device}; "
         f"report -> {folder}",
         file=sys.stderr,
     )

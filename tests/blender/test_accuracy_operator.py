@@ -17,10 +17,69 @@ def _small_scene(bpy, tmp_path):
     reference (about 2 s of rendering on PoCL)."""
     write_container(tmp_path / "lambert.btfm", LambertianBTF(0.7))
     scene = sphere_on_ground(bpy, tmp_path, tmp_path / "lambert.btfm", (48, 32), 16, 8)
+    scene.btf_accuracy.thoroughness = "FULL"
     scene.btf_accuracy.preview_size = 16
     scene.btf_accuracy.reference_samples = 32
     scene.btf_accuracy.budget = 30.0
     return scene
+
+
+def test_the_quick_estimate_is_the_default_and_speaks_in_words(bpy_module, fresh_scene, tmp_path):
+    """Issue 32 item 4: the default estimate measures only the scene's own mode's work knob
+    (the samples or lights a designer trades against time) on a small preview, and the panel
+    says the result in words: no "rung", no "rmse", no ``texel_filter=LINEAR``."""
+    from types import SimpleNamespace
+
+    bpy = bpy_module
+    write_container(tmp_path / "lambert.btfm", LambertianBTF(0.7))
+    scene = sphere_on_ground(bpy, tmp_path, tmp_path / "lambert.btfm", (48, 32), 16, 8)
+    scene.btf_accuracy.target = 0.001  # unreachable here: the panel says what would reach it
+    scene.btf_render.final_mode = "SAMPLED"
+    assert scene.btf_accuracy.thoroughness == "QUICK"
+    assert bpy.ops.btf.estimate_quality() == {"FINISHED"}
+    data = json.loads(scene.btf_accuracy.report)
+    ladder = extension_submodule("btf_addon.render.accuracy.ladder")
+    own = scene.btf_render.samples
+    expected = sorted({*ladder.QUICK_VALUES["samples"], own})
+    assert [p["knobs"]["samples"] for p in data["points"]] == expected
+    base = {k: v for k, v in data["points"][0]["knobs"].items() if k != "samples"}
+    assert all({k: v for k, v in p["knobs"].items() if k != "samples"} == base
+               for p in data["points"])  # fmt: skip
+    run = extension_submodule("btf_addon.blender.accuracy.run")
+    assert data["reference"]["settings"]["samples"] == run.QuickSizes.reference_samples
+    rec = data["recommendation"]
+    assert rec["words"].startswith(f"{rec['knobs']['samples']} samples: noise ")
+    assert rec["words"].endswith("at full size (48×32)")
+    assert not rec["met"] and "samples would" in rec["reason_words"]
+
+    labels = []
+
+    class Layout:
+        use_property_split = False
+
+        def label(self, text="", **_kw):
+            labels.append(text)
+
+        def prop(self, *_a, **_kw):
+            pass
+
+        def operator(self, *_a, **_kw):
+            return SimpleNamespace()
+
+        def template_icon(self, **_kw):
+            pass
+
+        def _child(self, *_a, **_kw):
+            return self
+
+        row = column = box = _child
+
+    module = extension_submodule("btf_addon.blender.accuracy.operator")
+    module.BTF_PT_render_accuracy.draw(SimpleNamespace(layout=Layout()), bpy.context)
+    shown = " ".join(labels)
+    assert f"Recommended: {rec['words']}" in labels and rec["reason_words"] in labels
+    for jargon in ("rung", "rmse", "RMSE", "texel_filter", "="):
+        assert jargon not in shown, (jargon, labels)
 
 
 def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fresh_scene, tmp_path):

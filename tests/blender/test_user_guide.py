@@ -73,6 +73,11 @@ def real_messages(tmp_path) -> list[str]:
     encoded = tmp_path / "alu.btfm"
     encoded.write_bytes(bytes(120_000))
     alu = SimpleNamespace(meta=SimpleNamespace(width=64, height=64))
+    ladder = extension_submodule("btf_addon.render.accuracy.ladder")
+    report = extension_submodule("btf_addon.render.accuracy.report")
+    settings = extension_submodule("btf_addon.render.settings")
+    sampled = settings.RenderSettings(final_mode=settings.FinalMode.SAMPLED, samples=64)
+    point = ladder.Point(ladder.Rung(sampled, "samples"), 1.0, 0.015, 0.001, 35.0)
     loose = tmp_path / "table.txt"
     loose.write_text("1 2 3\n")
     missing = paths.MissingSource("Wool", "//btf/wool", "//btf/wool: no such file or folder")
@@ -85,6 +90,7 @@ def real_messages(tmp_path) -> list[str]:
         final_render.fallback_warning("OpenCL unavailable (no platform)", ""),
         mapping.ORIGINS["ASSUMED"](SimpleNamespace(assumed_texel_mm=0.1)),
         compress.summary(encoded, alu, "MLVQ", (38.2, 0.951), 12.0),
+        report.recommendation_words(point, (320, 240)),
     ]
 
 

@@ -19,7 +19,7 @@ import threading
 
 import bpy
 import numpy as np
-from bpy.props import FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ...core.errors import BTFError
@@ -30,7 +30,7 @@ from ..addon import ENGINE_ID
 from ..background_job import BackgroundJobModal
 from ..preferences import preferred_device
 from ..sync import render_settings
-from .run import prepare, set_up
+from .run import QuickSizes, prepare, set_up
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +54,16 @@ class BTFAccuracySettings(PropertyGroup):
         precision=3,
         description="Relative RMSE against the reference to reach (0: none)",
     )
+    thoroughness: EnumProperty(
+        name="Estimate",
+        items=(
+            ("QUICK", "Quick", "The scene's own mode, its samples or lights only, at a small "
+             "preview: about a minute on two CPU cores for 320×240", 0),
+            ("FULL", "Full", "Every quality knob (mode, samples or lights, bounces, "
+             "anti-aliasing, texel filter) at Preview Size against Reference Samples", 1),
+        ),
+        default="QUICK",
+    )  # fmt: skip
     preview_size: IntProperty(
         name="Preview Size",
         default=160,
@@ -143,12 +153,15 @@ def start_job(context) -> Job:
     """Export and prepare on this (main) thread, then start the worker."""
     scene = context.scene
     props = scene.btf_accuracy
+    quick = props.thoroughness == "QUICK"
     estimate, rungs, renderer = prepare(
         context.evaluated_depsgraph_get(),
-        props.preview_size,
+        QuickSizes.longest if quick else props.preview_size,
         preferred_device(),
-        props.reference_samples,
+        QuickSizes.reference_samples if quick else props.reference_samples,
+        QuickSizes.reference_bounces if quick else 8,
         setup=False,  # on the worker: a first kernel compile must not freeze the UI
+        quick=quick,
     )
     job = Job(
         estimate,
@@ -178,8 +191,7 @@ def finish_job(operator, context, job: Job) -> set[str]:
         return {"CANCELLED"}
     operator.report(
         {"INFO"},
-        f"{done}: recommended {rec['describe']}, predicted {rec['predicted_seconds']:.2f} s, "
-        f"error {rec['rmse']:.4f}" + (" (cancelled early)" if est.interrupted else ""),
+        f"{done}: recommended {rec['words']}" + (" (cancelled early)" if est.interrupted else ""),
     )
     return {"FINISHED"}
 
@@ -330,8 +342,10 @@ class BTF_PT_render_accuracy(Panel):
         col = layout.column()
         col.prop(props, "budget")
         col.prop(props, "target")
-        col.prop(props, "preview_size")
-        col.prop(props, "reference_samples")
+        col.prop(props, "thoroughness")
+        if props.thoroughness == "FULL":
+            col.prop(props, "preview_size")
+            col.prop(props, "reference_samples")
         job = running_job(scene)
         if job is not None:
             row = layout.row()
@@ -352,16 +366,15 @@ class BTF_PT_render_accuracy(Panel):
         rec = data.get("recommendation")
         box = layout.box()
         if data.get("interrupted"):
-            box.label(text=f"Cancelled: {data['rungs_done']} of {data['rungs_total']}", icon="INFO")
+            done, total = data["rungs_done"], data["rungs_total"]
+            box.label(text=f"Cancelled: {done} of {total} settings measured", icon="INFO")
         if rec is None:
             box.label(text="No recommendation yet")
             return
-        fw, fh = data["full_size"]
-        box.label(text=f"Recommended: {rec['describe']}")
-        box.label(text=f"Error {rec['rmse']:.4f} (1-SSIM {rec['ssim_loss']:.4f})")
-        box.label(text=f"Predicted {rec['predicted_seconds']:.2f} s at {fw}x{fh}")
+        box.label(text=f"Recommended: {rec['words']}")
+        box.label(text=f"Error {rec['rmse']:.1%} of the image's brightness (RMS)")
         if not rec["met"]:
-            box.label(text=rec["reason"], icon="ERROR")
+            box.label(text=rec.get("reason_words", rec["reason"]), icon="ERROR")
         box.operator("btf.apply_recommended", icon="CHECKMARK")
 
 

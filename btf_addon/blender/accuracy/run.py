@@ -22,7 +22,14 @@ from ...cl.context import OpenCLUnavailableError, create_context
 from ...cl.frame import render_frame
 from ...cl.renderer import CLRenderer
 from ...core.errors import BTFError
-from ...render.accuracy.ladder import KNOBS, Estimate, Rung, ladder, reference_settings
+from ...render.accuracy.ladder import (
+    KNOBS,
+    Estimate,
+    Rung,
+    ladder,
+    quick_knobs,
+    reference_settings,
+)
 from ...render.lighting import frame_lights
 from ...render.settings import RenderSettings
 from ...scene.analysis import analyse
@@ -33,6 +40,18 @@ from ..sync import frame_size, render_settings
 #: The preview's longest side in pixels: small enough that a ladder of ~13 rungs plus the
 #: reference takes seconds to a minute on a CPU, large enough for the error maps to show where.
 PREVIEW_LONGEST = 160
+
+
+class QuickSizes:
+    """The quick estimate's preview and reference (Quality vs Time's default): a third of the
+    full estimate's pixels, half its reference samples — four times the quick ladder's most,
+    so the reference's own noise adds at most 12 % to a rung's error — and the scene's own
+    bounces, so the demo scene answers within a minute on two CPU cores (docs/accuracy.md,
+    "Quality vs Time: quick and full")."""
+
+    longest = 96
+    reference_samples = 512
+    reference_bounces = 0  # the reference takes max(this, the scene's max bounces)
 
 
 def preview_size(full: tuple[int, int], longest: int = PREVIEW_LONGEST) -> tuple[int, int]:
@@ -112,11 +131,13 @@ def prepare(
     reference_samples: int = 1024,
     reference_bounces: int = 8,
     setup: bool = True,
+    quick: bool = False,
 ) -> tuple[Estimate, list[Rung], LadderRenderer]:
     """On the main thread: the estimate's frame (the scene's settings and sizes), its rungs and
     the renderer (scene exported at the preview size). Raises BTFError for a scene without a
     camera or with no knob to trade (the headlight). ``setup=False`` leaves the device to
-    ``set_up(estimate, renderer)`` on a worker thread."""
+    ``set_up(estimate, renderer)`` on a worker thread. ``quick``: the quick estimate's rungs
+    (QUICK_VALUES of the scene's own mode); the caller picks its smaller sizes (QUICK)."""
     scene = depsgraph.scene
     if scene.camera is None:
         raise BTFError(f"the scene {scene.name!r} has no camera to estimate from")
@@ -125,6 +146,8 @@ def prepare(
     # The texel filter knob only where BTF materials exist, starting from the scene's own
     # filter where they share one.
     knobs = KNOBS if filters else tuple(k for k in KNOBS if k.name != "texel_filter")
+    if quick:  # the scene's own mode, its work knob only (ladder.py QUICK_VALUES)
+        knobs = quick_knobs()
     rungs = ladder(
         base, knobs, base_extra={"texel_filter": filters.pop()} if len(filters) == 1 else {}
     )

@@ -103,6 +103,16 @@ KNOBS: tuple[Knob, ...] = (
 
 _FIELDS = {f.name for f in fields(RenderSettings)}
 
+#: The quick estimate (Quality vs Time's default): the one work knob of the scene's own mode
+#: (samples when Sampled, virtual lights otherwise), every other setting as the scene has it.
+QUICK_VALUES = {"samples": (4, 16, 64, 128), "lights_total": (16, 64, 256, 1024)}
+
+
+def quick_knobs() -> tuple[Knob, ...]:
+    """The knobs of the quick estimate: no branch (the scene's final mode only), the work knob
+    over QUICK_VALUES."""
+    return tuple(replace(k, values=QUICK_VALUES[k.name]) for k in KNOBS if k.name in QUICK_VALUES)
+
 
 def all_knobs(knobs: Sequence[Knob] | None = None) -> Sequence[Knob]:
     """``knobs``, or the module's ``KNOBS`` read at call time (not bound as a default, so a
@@ -627,6 +637,47 @@ def describe_rung(rung: Rung, knobs: Sequence[Knob] | None = None) -> str:
     mode = values.pop("final_mode", None)
     body = ", ".join(f"{k}={v}" for k, v in values.items())
     return f"{mode.lower()}: {body}" if mode else body or "as the scene"
+
+
+#: How a knob's value reads in a sentence ("64 samples", "Linear texels").
+_WORDS: dict[str, Callable[[Any], str]] = {
+    "final_mode": lambda v: "Sampled" if v == "SAMPLED" else "Virtual Lights",
+    "lights_total": lambda v: f"{v} virtual lights",
+    "samples": lambda v: f"{v} sample{'s' if v != 1 else ''}",
+    "max_bounces": lambda v: f"{v} bounce{'s' if v != 1 else ''}",
+    "use_antialiasing": lambda v: "anti-aliased" if v else "no anti-aliasing",
+    "aa_samples": lambda v: f"{v} subpixel{'s' if v != 1 else ''}",
+    "texel_filter": lambda v: f"{str(v).title()} texels",
+}
+
+
+def describe_words(rung: Rung, knobs: Sequence[Knob] | None = None) -> str:
+    """The rung in a designer's words: "64 samples" when only the swept knob differs from the
+    scene's settings, else every knob that applies ("Sampled, 64 samples, 4 bounces, …")."""
+    values = rung.knob_values(knobs)
+    words = [_WORDS.get(k, lambda v, k=k: f"{k} {v}")(v) for k, v in values.items()]
+    sweep = rung.sweep
+    if not rung.branch and sweep in values:
+        return _WORDS.get(sweep, lambda v: f"{sweep} {v}")(values[sweep])
+    return ", ".join(words) or "the scene's settings"
+
+
+#: Relative RMSE → what a viewer sees, for the panel's sentence: thresholds where the error
+#: stops being visible in a still image (≈ 1 %), is barely visible (2 %), and so on.
+QUALITY_WORDS = ((0.01, "indistinguishable"), (0.02, "barely visible"), (0.05, "slight"),
+                 (0.1, "visible"), (math.inf, "strong"))  # fmt: skip
+
+
+def quality_words(rmse: float, sampled: bool) -> str:
+    """ "noise barely visible", "differences slight": noise for the Sampled mode (it averages
+    out), differences for Virtual Lights (a fixed error: banding, missing light)."""
+    what = "noise" if sampled else "differences from the true image"
+    for bound, word in QUALITY_WORDS:
+        if rmse <= bound:
+            if word == "indistinguishable":
+                return "indistinguishable from the reference"
+            return f"{what} {word}"
+    return f"{what} unknown"
 
 
 def settings_json(settings: RenderSettings) -> dict[str, Any]:

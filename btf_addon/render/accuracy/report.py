@@ -23,8 +23,10 @@ from .ladder import (
     all_knobs,
     cost_class,
     describe_rung,
+    describe_words,
     error_map,
     pareto_front,
+    quality_words,
     recommend,
     reference_noise,
     settings_json,
@@ -116,6 +118,8 @@ def to_json(
             "reason": rec.reason,
             "met": rec.met,
             "describe": describe_rung(p.rung),
+            "words": recommendation_words(p, estimate.full_size),
+            "reason_words": "" if rec.met else missed_words(p, budget, target),
             "knobs": p.rung.knob_values(),
             "settings": settings_json(p.rung.settings),
             "rmse": _num(p.rmse),
@@ -125,6 +129,38 @@ def to_json(
             "rmse_upper": _num(p.rmse_upper),
         }
     return out
+
+
+def recommendation_words(point, full_size: tuple[int, int]) -> str:
+    """ "64 samples: noise barely visible, 35 s at full size (320×240)": what the panel says."""
+    seconds = point.predicted_seconds
+    time = f"{seconds:.0f} s" if seconds >= 10 else f"{seconds:.1f} s"
+    return (
+        f"{describe_words(point.rung)}: {quality_words(point.rmse, point.rung.settings.sampled)}"
+        f", {time} at full size ({full_size[0]}×{full_size[1]})"
+    )
+
+
+def missed_words(point, budget: float | None, target: float | None) -> str:
+    """Why the recommendation misses the request, and what would meet a missed error target:
+    a Sampled image's noise falls as 1/√samples, so n·(error/target)² samples reach it (the
+    time grows with the samples; an extrapolation, stated as one)."""
+    if target is not None and point.rmse > target:
+        settings = point.rung.settings
+        if not settings.sampled:
+            return (
+                f"No setting measured reaches {target:.0%} error: use Sampled, or more virtual "
+                "lights (the Full estimate measures them)"
+            )
+        n = math.ceil(settings.samples * (point.rmse / target) ** 2)
+        seconds = point.predicted_seconds * n / settings.samples
+        return (
+            f"No setting measured reaches {target:.0%} error: about {n} samples would "
+            f"(noise falls as 1/√samples), ≈ {seconds:.0f} s at full size (extrapolated)"
+        )
+    if budget is not None:
+        return f"Nothing measured fits {budget:g} s: this is the fastest"
+    return ""
 
 
 def write_json(folder: Path, data: dict[str, Any]) -> Path:
@@ -273,7 +309,7 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
     ]
     if data["interrupted"]:
         lines += [
-            f"**Interrupted** after {data['rungs_done']} of {data['rungs_total']} rungs: "
+            f"**Interrupted** after {data['rungs_done']} of {data['rungs_total']} settings: "
             "the numbers below are what was done.",
             "",
         ]
@@ -282,7 +318,9 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
         lines += [
             "## Recommended",
             "",
-            f"**{rec['describe']}** — {rec['reason']}: relative RMSE {_s(rec['rmse'])}, "
+            f"**{rec['words']}**." + (f" {rec['reason_words']}." if rec["reason_words"] else ""),
+            "",
+            f"Settings: {rec['describe']} — {rec['reason']}: relative RMSE {_s(rec['rmse'])}, "
             f"1 − SSIM {_s(rec['ssim_loss'])}, predicted {_s(rec['predicted_seconds'])} s "
             f"at {fw}x{fh}" + ("" if rec["met"] else " (the request could not be met)") + ".",
             "",
@@ -291,7 +329,7 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
             "different seeds "
             f"({rec['seeds']} × the preview's pixels): rare bright pixels (fireflies) carry much "
             "of a noisy render's squared error, and one small preview holds fewer of them than "
-            "the full-size image will. Errors of the other rungs are from one preview each.",
+            "the full-size image will. Errors of the other settings are from one preview each.",
             "",
         ]
     if data["points"]:
@@ -300,7 +338,7 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
             "",
             "![1 - SSIM vs time](ssim_vs_time.png)",
             "",
-            "## Every rung",
+            "## Every setting measured",
             "",
             f"| curve | settings | s at {pw}x{ph} | predicted s at {fw}x{fh} | relative RMSE "
             "| 1 − SSIM | Pareto |",
