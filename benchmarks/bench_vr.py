@@ -16,6 +16,16 @@ views of one drawer, exactly as the VR draw callback draws them. Times end with
 - FrameBudget with the real clock on the stereo loop, head still (render/frame_budget.py, one
   controller per eye, as the VR callback uses it): the K it settles at and the time until 200
   lights are in; the relative RMSE of the left eye against its 1024-light image on the way.
+- Blender's VR session callback as it runs live (issue 35), in bpy: a scene of 200 objects,
+  two eyes and a desktop mirror view, per-eye CPU time of ``draw_callback`` at 16×12 pixels
+  (the fragment work, BTF decode included, is negligible there: what is left is the overhead
+  outside the decode), before and after issue 35's changes in one run. "Before" is the old
+  behaviour reproduced on the same code: the plain ``BlenderGPUDevice`` (every uniform
+  converted on every draw), the gaze ray-cast on every restart of every eye, and every
+  depsgraph update re-exporting the scene; "after" is the live code, its view-transform pass
+  included (one more full-screen pass per eye). Head moving 2 mm a frame
+  (a tracked head: every frame restarts), with and without a Scene update per frame (our
+  exposure, a VR gesture). ``python benchmarks/bench_vr.py --live`` runs only this part.
 """
 
 from __future__ import annotations
@@ -268,7 +278,230 @@ def main() -> str:
     return "\n\n".join(out)
 
 
+# ------------------------------------------------------------------ the live session (bpy)
+LIVE_OBJECTS = 200
+LIVE_FRAMES = 40
+
+
+def live_scene(bpy):
+    """200 small cubes with a plain material on a grid in front of the viewer, a World."""
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    scene = bpy.context.scene
+    material = bpy.data.materials.new("Plain")
+    mesh = bpy.data.meshes.new("cube")
+    import bmesh
+
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=0.2)
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.materials.append(material)
+    for i in range(LIVE_OBJECTS):
+        obj = bpy.data.objects.new(f"cube{i:03d}", mesh)
+        obj.location = ((i % 20) * 0.3 - 3.0, 1.0 + (i // 20) * 0.3, 0.0)
+        scene.collection.objects.link(obj)
+    scene.world = bpy.data.worlds.new("World")
+    vr = scene.btf_vr
+    vr.lights_mode, vr.lights_per_frame, vr.lights_total = "FIXED", 1, 64
+    vr.show_hud = True
+    return scene
+
+
+class LiveSession:
+    """Two eyes and a mirror drawn by ``draw_callback`` as Blender's session draws them."""
+
+    def __init__(self, bpy, xr, legacy: bool) -> None:
+        import gpu
+
+        from btf_addon.blender.gpu_draw import BlenderGPUDevice
+
+        self.bpy, self.xr, self.legacy = bpy, xr, legacy
+        self.session = type("State", (), {})()
+        self.session.navigation_scale = 1.0
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        display = None
+        if not legacy:  # the live callback draws through the scene's view transform
+            from btf_addon.blender.vr.display import DisplayTransform
+
+            display = DisplayTransform()
+            display.update(bpy.context.scene)
+        self.preview = xr.XRPreview(
+            xr.SceneSource(lambda: depsgraph, lambda: self.session), display=display
+        )
+        if legacy:
+            self.preview.device = BlenderGPUDevice()
+        self.in_draw_calls = [0.0]  # seconds inside GPUBatch.draw (the GPU's work, the decode)
+        device, draw = self.preview.device, type(self.preview.device).draw
+
+        def timed_draw(program, vertices, uniforms, samplers):
+            return draw(
+                device, program, _TimedBatch(vertices, self.in_draw_calls), uniforms, samplers
+            )
+
+        device.draw = timed_draw
+        self.sim = profile("simulated").scaled(0.05)  # 16×12 per eye
+        self.offscreens = {
+            key: gpu.types.GPUOffScreen(w, h, format="RGBA16F")
+            for key, (w, h) in (("eye", (16, 12)), ("mirror", (32, 24)))
+        }
+        self.times = {"left": [], "right": [], "mirror": []}
+        self.outside = {"left": [], "right": [], "mirror": []}  # less the GPUBatch.draw time
+
+    def frame(self, step: int, scene_update: bool) -> None:
+        head = (0.002 * step, -4.0, 1.0)
+        world_from_head = look_at(head, (0.0, 2.0, 0.0))
+        self.session.viewer_pose_location = head
+        if scene_update:  # one depsgraph update of the Scene itself (exposure, a gesture)
+            if self.legacy:
+                self.preview.invalidate()  # the old handler: every update re-exported
+            else:
+                scene = self.bpy.context.scene
+                self.preview.depsgraph_updated(_Updates(scene))
+        left, right = stereo_eyes(self.sim, world_from_head)
+        for key, eye in (("left", left), ("right", right)):  # the headset first, as Blender
+            if self.legacy:
+                self.preview.gaze = None  # the old callback cast the gaze on every restart
+            self._draw(key, self.offscreens["eye"], eye.clip_from_view, eye.view_from_world)
+        mirror = (_symmetric_projection(32 / 24), np.linalg.inv(world_from_head))
+        self._draw("mirror", self.offscreens["mirror"], *mirror)
+
+    def _draw(self, key, offscreen, clip_from_view, view_from_world) -> None:
+        import gpu
+        import mathutils
+
+        with offscreen.bind(), gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
+            gpu.matrix.load_projection_matrix(mathutils.Matrix(clip_from_view.tolist()))
+            gpu.matrix.load_matrix(mathutils.Matrix(view_from_world.tolist()))
+            t0, gpu0 = time.perf_counter(), self.in_draw_calls[0]
+            self.xr.draw_callback(self.preview)
+            elapsed = time.perf_counter() - t0
+            self.times[key].append(elapsed)
+            self.outside[key].append(elapsed - (self.in_draw_calls[0] - gpu0))
+        if self.preview.error:
+            raise RuntimeError(self.preview.error)
+
+    def release(self) -> None:
+        self.preview.release()
+        for offscreen in self.offscreens.values():
+            offscreen.free()
+
+
+class _TimedBatch:
+    """A GPUBatch whose ``draw`` adds its wall time to ``total[0]``."""
+
+    def __init__(self, batch, total: list) -> None:
+        self.batch, self.total = batch, total
+
+    def draw(self, program) -> None:
+        t0 = time.perf_counter()
+        self.batch.draw(program)
+        self.total[0] += time.perf_counter() - t0
+
+
+class _Updates:
+    """A depsgraph's ``updates`` holding one update of ``datablock`` (no geometry, shading)."""
+
+    def __init__(self, datablock) -> None:
+        update = type("Update", (), {})()
+        update.id, update.is_updated_geometry, update.is_updated_shading = datablock, False, False
+        self.updates = [update]
+
+
+def _symmetric_projection(aspect: float, near: float = 0.1, far: float = 100.0) -> np.ndarray:
+    t = 0.5
+    return np.array(
+        [
+            [1 / (aspect * t), 0, 0, 0],
+            [0, 1 / t, 0, 0],
+            [0, 0, -(far + near) / (far - near), -2 * far * near / (far - near)],
+            [0, 0, -1, 0],
+        ]
+    )
+
+
+def live_session_table() -> str:
+    """Per-eye callback ms before/after (module docstring), as medians over the frames after
+    the first two (export and GPU allocation)."""
+    try:
+        import bpy
+    except ImportError:
+        return "live session: skipped (no bpy)"
+    from blender_helpers import init_gpu_module
+
+    import btf_addon
+
+    btf_addon.register()
+    try:
+        from btf_addon.blender.vr import preview as xr
+
+        live_scene(bpy)
+        init_gpu_module(bpy)
+        rows = []
+        for scene_update in (False, True):
+            # Before and after interleaved frame by frame: a shared machine's load drifts.
+            sessions = {legacy: LiveSession(bpy, xr, legacy) for legacy in (True, False)}
+            try:
+                for step in range(LIVE_FRAMES):
+                    for session in sessions.values():
+                        session.frame(step, scene_update)
+                medians = {
+                    legacy: {k: float(np.median(t[2:])) for k, t in session.times.items()}
+                    for legacy, session in sessions.items()
+                }
+                outside = {
+                    legacy: {k: float(np.median(t[2:])) for k, t in session.outside.items()}
+                    for legacy, session in sessions.items()
+                }
+                casts = {legacy: s.preview.ray_casts for legacy, s in sessions.items()}
+                conversions = sessions[False].preview.device.conversions
+            finally:
+                for session in sessions.values():
+                    session.release()
+            before, after = medians[True], medians[False]
+            eye_before = (before["left"] + before["right"]) / 2
+            eye_after = (after["left"] + after["right"]) / 2
+            out_before = (outside[True]["left"] + outside[True]["right"]) / 2
+            out_after = (outside[False]["left"] + outside[False]["right"]) / 2
+            rows.append(
+                [
+                    "Scene update every frame" if scene_update else "no depsgraph update",
+                    round(eye_before * 1000, 2),
+                    round(eye_after * 1000, 2),
+                    round(eye_before / eye_after, 2),
+                    round(out_before * 1000, 2),
+                    round(out_after * 1000, 2),
+                    round(out_before / out_after, 2),
+                    round(before["mirror"] * 1000, 2),
+                    round(after["mirror"] * 1000, 2),
+                    f"{casts[True]} → {casts[False]}",
+                    conversions,
+                ]
+            )
+    finally:
+        btf_addon.unregister()
+    return table(
+        [
+            f"{LIVE_OBJECTS} objects, 2 eyes 16×12 + mirror 32×24, head moving",
+            "ms/eye before",
+            "ms/eye after",
+            "before ÷ after",
+            "ms/eye outside draw calls, before",
+            "after",
+            "before ÷ after",
+            "mirror ms before",
+            "mirror ms after",
+            f"gaze casts before → after ({LIVE_FRAMES} frames)",
+            "uniform conversions after",
+        ],
+        rows,
+    )
+
+
 if __name__ == "__main__":
+    import sys
+
     t_start = time.perf_counter()
-    print(main())
+    if "--live" not in sys.argv:
+        print(main())
+    print(live_session_table())
     print(f"\n(bench_vr took {time.perf_counter() - t_start:.0f} s)")

@@ -596,3 +596,95 @@ def test_the_panel_switches_between_our_actions_and_blenders_navigation(bpy_modu
     ]
     no_session = SimpleNamespace(window_manager=SimpleNamespace(xr_session_state=None))
     assert xr_registered.activate(no_session, use_btf=True) is False
+
+
+# ------------------------------------------------------------------ beside Blender's navigation
+class SessionRefusingDuplicates(StandInSession):
+    """As ``StandInSession``, plus what ``WM_xr_action_set_create`` does with a name it has
+    (GHOST_XrSession::createActionSet: refused, False) and with actions of a set it lacks
+    (refused); the action maps are found by name as ``XrActionMaps.find`` finds them."""
+
+    def __init__(self, bpy) -> None:
+        super().__init__(bpy)
+        self.sets: list[str] = []
+        self.actionmaps.find = lambda state, name: next(
+            (am for am in self.actionmaps if am.name == name), None
+        )
+
+    def action_set_create(self, context, am):
+        if am.name in self.sets:
+            self.log.append(("action_set_create refused", am.name))
+            return False
+        self.sets.append(am.name)
+        return super().action_set_create(context, am)
+
+    def action_create(self, context, am, ami):
+        return am.name in self.sets and super().action_create(context, am, ami)
+
+
+def vr_scene_inspection_handler(session):
+    """The VR Scene Inspection add-on's ``xr_session_start_pre`` handler as its
+    ``action_map.py`` ``vr_create_actions`` runs it: ensure its two default maps, then walk EVERY
+    action map of the session, giving up at the first ``action_set_create`` that fails, then
+    make the first map's set the active one."""
+
+    def vr_create_actions(context):  # one argument: Blender passes it one (choose_arguments)
+        for name in ("blender_default", "blender_default_gamepad"):
+            if session.actionmaps.find(session, name) is None:
+                am = session.actionmaps.new(session, name, True)
+                ami = am.actionmap_items.new("teleport", True)
+                ami.user_paths.new("/user/hand/left")
+                amb = ami.bindings.new("oculus", True)
+                amb.component_paths.new("/input/trigger/value")
+        for am in session.actionmaps:
+            if not session.action_set_create(None, am):
+                return
+            for ami in am.actionmap_items:
+                if not session.action_create(None, am, ami):
+                    return
+        session.active_action_set_set(None, session.actionmaps[0].name)
+
+    return vr_create_actions
+
+
+def run_start_pre_handlers(handlers) -> None:
+    """Blender's handler loop (bpy_app_generic_callback): the list's length is read at every
+    step, a function of one positional argument gets one argument, others get two."""
+    pos = 0
+    while pos < len(handlers):
+        func = handlers[pos]
+        code = getattr(func, "__code__", None)
+        func(*((None,) if code is not None and code.co_argcount == 1 else (None, None)))
+        pos += 1
+
+
+@pytest.mark.parametrize("ours_first", [True, False])
+def test_blenders_navigation_is_created_whichever_handler_runs_first(
+    bpy_module, xr_registered, monkeypatch, ours_first
+):
+    """Issue 35 item 1: whether our handler was added before or after the VR add-on's, the
+    add-on creates its sets (teleport, fly, grab stay available) and ours is created too, last,
+    and is the active set."""
+    bpy = bpy_module
+    xb = _bindings()
+    session = SessionRefusingDuplicates(bpy)
+    stand_in_op_properties(session, monkeypatch)
+    monkeypatch.setattr(xr_registered, "_session_state", lambda context: session)
+    handlers = bpy.app.handlers.xr_session_start_pre
+    saved = list(handlers)
+    addon = vr_scene_inspection_handler(session)
+    order = [xr_registered.on_session_start, addon]
+    try:
+        handlers.clear()
+        handlers.extend(order if ours_first else order[::-1])
+        run_start_pre_handlers(handlers)
+        after = list(handlers)
+    finally:
+        handlers.clear()
+        handlers.extend(saved)
+    refused = [e for e in session.log if e[0] == "action_set_create refused"]
+    assert refused == []
+    assert session.sets == ["blender_default", "blender_default_gamepad", xb.ACTION_SET]
+    actives = [e[1] for e in session.log if e[0] == "active_action_set_set"]
+    assert actives[-1] == xb.ACTION_SET
+    assert after == (order if ours_first else order[::-1])  # the one-shot builder is gone

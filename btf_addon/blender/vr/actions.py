@@ -7,9 +7,11 @@ the order of Blender's VR Scene Inspection add-on (``viewport_vr_preview/action_
 paths, threshold, axis regions) → ``action_set_create`` → ``action_create`` and
 ``action_binding_create`` per item and binding → ``controller_pose_actions_set`` →
 ``active_action_set_set``. Blender syncs only the active action set (``wm_xr_session.cc``), so
-while ours is active the VR add-on's default navigation actions (teleport, fly, grab) are not;
-the handler runs after the add-on's when this extension was enabled later, which is what makes
-ours the active one.
+while ours is active the VR add-on's default navigation actions (teleport, fly, grab) are not.
+Ours is built after every other ``xr_session_start_pre`` handler whatever the order they were
+added in (``on_session_start`` appends a one-shot ``build_after_other_handlers`` to the end of
+the list): the add-on's handler walks every action map of the session and stops at the first
+set that cannot be created, so it must never meet ours; built last, ours is the active set.
 
 Every non-pose action calls ``BTF_OT_xr_action`` (``btf.xr_action``) with the action's
 identifier. It reads ``event.xr`` (XrEventData: state, aim pose, user path), builds an ``Edit``
@@ -102,18 +104,51 @@ def build_action_map(session_state, context, items: tuple[XrAction, ...] = XR_AC
     return True
 
 
+def _session_state(context):
+    """The session being started (None when none is: e.g. a handler called by hand)."""
+    return getattr(context.window_manager, "xr_session_state", None)
+
+
 @persistent
 def on_session_start(*_args) -> None:
     """``xr_session_start_pre`` handler: the session exists (its state is there) and has not
-    started yet, the moment Blender expects action sets to be created."""
+    started yet, the moment Blender expects action sets to be created (it attaches every set
+    right after the handlers, ``wm_xr_session_actions_init``, and OpenXR attaches once).
+
+    The action map is NOT built here but by ``build_after_other_handlers``, appended to the end
+    of the handler list: Blender's handler loop reads the list's length at every step
+    (``bpy_app_generic_callback``), so it runs in this same chain, after every handler that was
+    there, the VR Scene Inspection add-on's ``vr_create_actions`` included. That one walks ALL
+    action maps of the session and gives up at the first ``action_set_create`` that fails
+    (``WM_xr_action_set_create`` fails for a set that exists): had ours been made first, it
+    would meet ours, fail, and leave Blender's navigation uncreated."""
+    if _session_state(bpy.context) is None:
+        return
+    handlers = bpy.app.handlers.xr_session_start_pre
+    for stale in _deferred_handlers():  # left by a chain that could not remove it: after us
+        handlers.remove(stale)
+    handlers.append(build_after_other_handlers)
+
+
+def build_after_other_handlers(*_args) -> None:
+    """The deferred half of ``on_session_start``: build the action map, then take itself out of
+    the handler list (only when it is the last entry: removing an earlier entry mid-loop would
+    make Blender's loop skip the next handler; a leftover is removed at the next start)."""
+    handlers = bpy.app.handlers.xr_session_start_pre
+    if len(handlers) and handlers[-1] is build_after_other_handlers:
+        handlers.pop()
     context = bpy.context
-    state = getattr(context.window_manager, "xr_session_state", None)
-    if state is None:  # no session being started (e.g. a handler called by hand)
+    state = _session_state(context)
+    if state is None:
         return
     if build_action_map(state, context):
         settings = getattr(context.scene, "btf_vr", None)
         if settings is not None and settings.controller_actions == "BLENDER":
             activate(context, use_btf=False)
+
+
+def _deferred_handlers() -> list:
+    return [h for h in bpy.app.handlers.xr_session_start_pre if h is build_after_other_handlers]
 
 
 #: The action set of Blender's VR Scene Inspection add-on (teleport, fly, grab).
@@ -124,7 +159,7 @@ def activate(context, use_btf: bool) -> bool:
     """Make our action set or Blender's navigation the active one in the running session
     (Blender syncs only the active set, so the controllers do one or the other). False when no
     session runs or the runtime refuses (the other set was never created)."""
-    state = getattr(context.window_manager, "xr_session_state", None)
+    state = _session_state(context)
     if state is None:
         return False
     return bool(state.active_action_set_set(context, ACTION_SET if use_btf else BLENDER_ACTION_SET))
@@ -306,7 +341,7 @@ def register() -> None:
 
 
 def unregister() -> None:
-    for handler in _our_handlers():
+    for handler in _our_handlers() + _deferred_handlers():
         bpy.app.handlers.xr_session_start_pre.remove(handler)
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -59,6 +59,30 @@ def _switch_actions(settings, context) -> None:
         xr_actions.activate(context, use_btf=settings.controller_actions == "BTF")
 
 
+#: Why the last start failed, as the panel says it (empty: it did not fail). Blender reports a
+#: missing runtime or headset itself: GHOST's XR error goes to ``wm_xr_error_handler``, which
+#: puts its message in the window manager's reports and the status bar and frees the XR
+#: runtime; ``wm.xr_session_toggle`` then returns CANCELLED without raising. Those messages
+#: (GHOST_XrContext.cc, GHOST_XrSession.cc) are what the hints below explain.
+START_FAILED_LINES = (
+    "The VR session did not start: Blender's message (status bar, Info editor) says why.",
+    "'Failed to connect to an OpenXR runtime.': install one and make it active",
+    "(SteamVR, Meta/Oculus, Windows Mixed Reality, Monado).",
+    "'Failed to get device information. Is a device plugged in?': connect and wake the headset.",
+)
+NO_WINDOW = "Start the VR session from a window with a 3D viewport (Blender needs a window)"
+last_start_failed = False
+
+
+def _xr_session_toggle(context):
+    """Blender's own start/stop (``wm.xr_session_toggle``); a module function for tests."""
+    return bpy.ops.wm.xr_session_toggle()
+
+
+def _is_running(context) -> bool:
+    return bool(bpy.types.XrSessionState.is_running(context))
+
+
 class BTF_OT_vr_session_toggle(Operator):
     """Start or stop the VR session with BTF materials drawn in the headset"""
 
@@ -67,18 +91,33 @@ class BTF_OT_vr_session_toggle(Operator):
     bl_options = {"REGISTER"}
 
     def execute(self, context):
+        global last_start_failed
         # Our draw callback is a custom overlay: it runs only with this switched on.
         context.window_manager.xr_session_settings.show_custom_overlays = True
+        starting = not _is_running(context)
         try:
-            result = bpy.ops.wm.xr_session_toggle()
-        except RuntimeError as exc:  # Blender reports a missing runtime/headset this way
-            self.report(
-                {"ERROR"},
-                f"Could not start the VR session ({exc}). Check that an OpenXR runtime is "
-                "installed and active (SteamVR, Oculus, WMR, Monado) and the headset is on",
-            )
+            result = _xr_session_toggle(context)
+        except RuntimeError:  # its poll: no window (background Blender, a script)
+            self.report({"ERROR"}, NO_WINDOW)
             return {"CANCELLED"}
+        if starting:
+            # A missing runtime/headset is reported by Blender itself (its message stays in
+            # the status bar: no report of ours on top of it); the panel explains it.
+            last_start_failed = "CANCELLED" in result and not _is_running(context)
         return result
+
+
+class BTF_OT_vr_show_custom_overlays(Operator):
+    """Turn on the VR session's Custom Overlays: BTF materials are drawn in the headset as
+    one (a session started from the VR Scene Inspection panel leaves them off)"""
+
+    bl_idname = "btf.vr_show_custom_overlays"
+    bl_label = "Show BTF in the Headset"
+    bl_options = {"REGISTER"}
+
+    def execute(self, context):
+        context.window_manager.xr_session_settings.show_custom_overlays = True
+        return {"FINISHED"}
 
 
 class VIEW3D_PT_btf_vr(Panel):
@@ -112,7 +151,13 @@ class VIEW3D_PT_btf_vr(Panel):
             for message in preview.messages:
                 box.label(text=message, icon="ERROR")
         if not context.window_manager.xr_session_settings.show_custom_overlays:
-            layout.label(text="Custom overlays are off: BTF is not drawn", icon="ERROR")
+            box = layout.box()
+            box.label(text="Custom overlays are off: BTF is not drawn", icon="ERROR")
+            box.operator("btf.vr_show_custom_overlays", icon="OVERLAY")
+        if last_start_failed and not running:
+            box = layout.box()
+            for i, line in enumerate(START_FAILED_LINES):
+                box.label(text=line, icon="ERROR" if i == 0 else "NONE")
 
 
 class VIEW3D_PT_btf_vr_unavailable(Panel):
@@ -128,7 +173,12 @@ class VIEW3D_PT_btf_vr_unavailable(Panel):
             col.label(text=line)
 
 
-WITH_XR = (BTFVRSettings, BTF_OT_vr_session_toggle, VIEW3D_PT_btf_vr)
+WITH_XR = (
+    BTFVRSettings,
+    BTF_OT_vr_session_toggle,
+    BTF_OT_vr_show_custom_overlays,
+    VIEW3D_PT_btf_vr,
+)
 WITHOUT_XR = (VIEW3D_PT_btf_vr_unavailable,)
 _registered: tuple = ()
 
