@@ -449,3 +449,20 @@ def test_the_eyes_show_the_desktops_colours_through_the_8bit_srgb_overlay(
     assert error.max() < 0.03 and error.mean() < 0.006, (error.max(), error.mean())
     untransformed = blender_overlay_merge(np.clip(reference[..., :3], 0.0, 1.0))
     assert np.abs(untransformed - expected).mean() > 0.03  # what the eyes showed before
+
+
+# ------------------------------------------------------------------ item 3: Blender's controllers
+def test_session_start_puts_our_callback_before_blenders_controllers(bpy_module, installed):
+    """Blender appends its controller stand-ins' and aim rays' 'XR' callback when a session
+    sets up its controller data, after ``xr_session_start_pre``. Our callback, re-added at the
+    end of the list in that handler, comes before it in every session, also when the add-on was
+    enabled while another session ran (then ours was added after Blender's and hid them)."""
+    bpy = bpy_module
+    preview = _preview_module()
+    assert preview._handler is not None  # the pip bpy is built with OpenXR
+    before = preview._handler
+    preview._on_session_start()
+    after = preview._handler
+    assert after is not before
+    with pytest.raises(ValueError):  # the old registration is gone: removing it again fails
+        bpy.types.SpaceView3D.draw_handler_remove(before, "XR")

@@ -470,10 +470,24 @@ def _on_session_start(*_args) -> None:
         _preview.release()
     _preview = None
     remember_session_window(bpy.context)
+    _draw_before_controllers()
     if getattr(bpy.context, "scene", None) is not None:
         _update_display(bpy.context.scene)
     if not bpy.app.timers.is_registered(_release_when_stopped):
         bpy.app.timers.register(_release_when_stopped, first_interval=1.0)
+
+
+def _draw_before_controllers() -> None:
+    """Put our draw callback at the end of the 'XR' region's list now, before the session
+    starts: Blender appends its controller stand-ins' and aim rays' callback when the session
+    sets up its controller data (``wm_xr_session_controller_data_populate``, after this
+    handler), so they draw over our opaque image. Registered once at add-on start, ours would
+    already come first; enabled during a running session it would come last and hide them."""
+    global _handler
+    if _handler is None:
+        return
+    bpy.types.SpaceView3D.draw_handler_remove(_handler, "XR")
+    _handler = bpy.types.SpaceView3D.draw_handler_add(draw_callback, (), "XR", "POST_VIEW")
 
 
 def _release_when_stopped() -> float | None:
