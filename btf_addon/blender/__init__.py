@@ -28,6 +28,7 @@ MODULES = (
     "accuracy.operator",  # after ui.btf_panels: its panel is a child of BTF_PT_render_settings
     "ui.film",  # after ui.btf_panels: below the BTF render panel
     "tools.compress",
+    "tools.asset_library",  # after ui.btf_panels: a child of BTF_PT_material
     "wiimote.overlay",
     "wiimote.operator",
     "vr.stereo_capture",

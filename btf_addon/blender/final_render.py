@@ -114,7 +114,7 @@ def render(engine, depsgraph) -> None:
         engine.report({"WARNING"}, fallback_warning(why, advice))
         last_device = "GLSL fallback (no OpenCL device that builds)"
         for view in view_names(engine):
-            exported.camera = view_camera(engine, scene, w, h, view)
+            exported.camera = view_camera(engine, depsgraph, w, h, view)
             combined = render_glsl(engine, exported, settings, w, h, transparent)
             if combined is None:  # it failed and reported why
                 return
@@ -123,7 +123,7 @@ def render(engine, depsgraph) -> None:
     last_device = f"OpenCL on {renderer.ctx.device_name}"
     views = view_names(engine)
     for i, view in enumerate(views):
-        renderer.scene.camera = view_camera(engine, scene, w, h, view)
+        renderer.scene.camera = view_camera(engine, depsgraph, w, h, view)
         if not _render_view(engine, depsgraph, renderer, settings, region, transparent, view,
                             (i, len(views))):  # fmt: skip
             return  # Esc: the views drawn so far stay
@@ -143,14 +143,15 @@ def view_names(engine) -> list[str]:
     return [view.name for view in engine.get_result().views] or [""]
 
 
-def view_camera(engine, scene, w: int, h: int, view: str) -> Camera:
+def view_camera(engine, depsgraph, w: int, h: int, view: str) -> Camera:
     """The camera of one view: Blender moves and shifts each eye of a stereo camera by its
     Stereoscopy settings (convergence mode, interocular distance, pivot); ask it, as Cycles
     does, rather than repeat its rules here."""
+    scene = depsgraph.scene
     if not view:
-        return export_camera(scene, w, h)
+        return export_camera(scene, w, h, depsgraph=depsgraph)
     engine.active_view_set(view)
-    camera = scene.camera
+    camera = scene.camera.evaluated_get(depsgraph)
     spherical = engine.use_spherical_stereo(camera)
     matrix = np.array(engine.camera_model_matrix(camera, use_spherical_stereo=spherical))
     shift_x = engine.camera_shift_x(camera, use_spherical_stereo=spherical)

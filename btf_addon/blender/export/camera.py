@@ -22,14 +22,23 @@ def fits_width(sensor_fit: str, aspect: float) -> bool:
 
 
 def export_camera(
-    scene, width: int, height: int, view: tuple[np.ndarray, float] | None = None
+    scene,
+    width: int,
+    height: int,
+    view: tuple[np.ndarray, float] | None = None,
+    depsgraph=None,
 ) -> Camera:
     """``scene.camera`` seen at ``width`` × ``height`` pixels. Raises BTFError without one.
     ``view``: one view of a stereo camera, as Blender's render engine gives it (its model
-    matrix and horizontal shift, ``RenderEngine.camera_model_matrix``/``camera_shift_x``)."""
+    matrix and horizontal shift, ``RenderEngine.camera_model_matrix``/``camera_shift_x``).
+    ``depsgraph``: the camera as evaluated there — a scene Blender renders without evaluating
+    its originals (the material preview, ``render.render(scene=…)``) has an original camera at
+    the origin."""
     cam_obj = scene.camera
     if cam_obj is None:
         raise BTFError("the scene has no camera: add one (Add > Camera) and make it active")
+    if depsgraph is not None:
+        cam_obj = cam_obj.evaluated_get(depsgraph)
     cam = cam_obj.data
     matrix, shift_x = view if view is not None else (cam_obj.matrix_world, cam.shift_x)
     m = np.array(matrix, dtype=np.float64)

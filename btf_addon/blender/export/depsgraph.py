@@ -57,7 +57,7 @@ def export_scene(
     if viewport and scene.camera is None:
         camera = Camera(np.eye(4))
     else:
-        camera = export_camera(scene, width, height)
+        camera = export_camera(scene, width, height, depsgraph=depsgraph)
     out = Scene(meshes, materials.materials, camera, environment.environment, messages, lights)
     out.metres_per_unit = float(scene.unit_settings.scale_length)  # real-world sizes (mapping)
     return out
