@@ -13,4 +13,5 @@ render() {
 render demo-virtual-16 --final-mode virtual --lights 16
 render demo-virtual-256 --final-mode virtual --lights 256
 render demo-sampled-64 --final-mode sampled --samples 64 --bounces 4
+"$PY" tools/render_guide_pictures.py --output "$out"  # stereo F12, asset library previews
 rm -rf "$out/demo_data"  # the demo's generated BTFs, written beside the output
