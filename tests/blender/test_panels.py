@@ -174,7 +174,8 @@ def test_material_panel_warns_while_its_source_is_missing(bpy_module, fresh_scen
     labels = draw(btf_panel, context).labels
     assert any("gone.btfm" in t and "no such file" in t for t in labels), labels
     (tmp_path / "gone.btfm").write_bytes(b"not a container")  # there, but cannot load
-    with pytest.raises(Exception):
+    errors = extension_submodule("btf_addon.core.errors")
+    with pytest.raises(errors.BTFError):
         extension_submodule("btf_addon.blender.export.materials").load_cached(
             material.btf.source
         )
