@@ -15,6 +15,9 @@ acquire/wait/draw/release, xrEndFrame with its readback of both eyes), on Mesa l
   the fixed part (vertices, draw calls) and the per-pixel overhead come from the two sizes'
   intercepts — for the XTAL 8K (2 × 3840×2160) and a 2 × 2016×2240 headset, and the K that
   fits one 90 Hz frame (11.1 ms).
+- Warm-up (issue 30 item 7): the bridge's own account of its start and first frames
+  (``BridgeStatus.warmup``: OpenXR session and GL context, shader compiles, uploads, the
+  driver's first draws), per eye size, at K = 1.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ THESIS = "RTX 2080 Ti (thesis): 47–147 FPS at 2 × 3840×2160 with 5 lights"
 
 
 class PinnedK:
-    """Stands in for an eye's FrameBudget: always K lights per frame."""
+    """Stands in for the eyes' shared FrameBudget: always K lights per frame."""
 
     def __init__(self, k: int):
         self.k, self.budget_s = k, 1.0
@@ -72,9 +75,12 @@ def moving_head(frames: int) -> list[list[float]]:
     ]
 
 
-def frame_time(scene, work: Path, size: tuple[int, int], k: int) -> tuple[float, float]:
+def frame_time(
+    scene, work: Path, size: tuple[int, int], k: int
+) -> tuple[float, float, tuple[str, ...]]:
     """Mean seconds per submitted stereo frame with K lights per eye: (the whole frame loop,
-    the bridge's drawing alone — both eyes' restart, K lights, resolve, GPU finished)."""
+    the bridge's drawing alone — both eyes' restart, K lights, resolve, GPU finished), and the
+    bridge's warm-up lines (its start and first frames, what they spent: issue 30 item 7)."""
     script = work / f"script_{size[0]}_{k}.json"
     script.write_text(
         json.dumps({"eye_size": list(size), "display_period_s": 0.001, "head": moving_head(64)})
@@ -97,8 +103,9 @@ def frame_time(scene, work: Path, size: tuple[int, int], k: int) -> tuple[float,
     bridge._draw_eye = timed_draw_eye
     bridge.start()
     try:
+        bridge.budget.budget = PinnedK(k)  # the eyes' one budget (gl/eye.py SharedBudget)
         for eye in bridge.eyes:
-            eye.budget = PinnedK(k)
+            eye.budget = bridge.budget.budget
         while bridge.frames < 1:  # warm-up: session running, programs compiled
             bridge.run_frame()
         bridge.gl.ctx.finish()
@@ -112,7 +119,7 @@ def frame_time(scene, work: Path, size: tuple[int, int], k: int) -> tuple[float,
             pass
     finally:
         bridge.close()
-    return seconds, drawing[0] / FRAMES
+    return seconds, drawing[0] / FRAMES, bridge.status.warmup
 
 
 def main() -> str:
@@ -120,9 +127,10 @@ def main() -> str:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         os.environ["XR_RUNTIME_JSON"] = str(build_runtime(work / "runtime"))
-        rows, fits = [], []
+        rows, fits, warmups = [], [], []
         for size in SIZES:
             measured = [frame_time(scene, work, size, k) for k in KS]
+            warmups.append(f"2 × {size[0]}×{size[1]}, K = {KS[0]}: " + "; ".join(measured[0][2]))
             pixels = 2 * size[0] * size[1]
             loop = [m[0] for m in measured]
             draw = [m[1] for m in measured]
@@ -175,6 +183,7 @@ def main() -> str:
         f"drawing model: {fixed * 1e3:.3g} ms fixed + per pixel {overhead_pp * 1e9:.3g} ns + "
         f"{cost_ppl * 1e9:.3g} ns per light. {THESIS}."
     )
+    out.append("warm-up (the bridge's own account, BridgeStatus.warmup):\n" + "\n".join(warmups))
     return "\n\n".join(out)
 
 

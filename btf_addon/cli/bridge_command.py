@@ -24,6 +24,11 @@ runtime's space lies in the scene: "space" (default) uses the reported poses as 
 coordinates; "camera" puts the head at the scene camera, facing its heading, +y up turned to
 the scene's +z (what a worn headset needs).
 
+The output ends with what the run used and did: the runtime, eye size, frames and FPS, the
+warm-up (how long the start and the first frames took, and on what: the OpenXR session and
+GL context, shader compiles, uploads, the driver's first draws), and per eye the lights per
+frame (one decision per frame for both eyes) and the lights accumulated.
+
 --capture DIR writes, per submitted frame and eye, the linear image (EXR) and a JSON with the
 eye's pose and FOV as submitted, the matrices drawn with, lights so far, exposure, eye size
 and the runtime's name (docs/user-guide.md, "XTAL bridge and headless captures").
@@ -125,6 +130,7 @@ def cmd_bridge(args) -> int:
     for message in scene.messages:
         print(f"note: {message}", file=sys.stderr)
     # BridgeError (its exit codes) and Ctrl-C (130) end at the CLI's one boundary (cli/main.py);
+    # a Ctrl-C at any point of a frame ends it, the session and the GL work first (xr/session.py);
     # the session and the context are released on the way out.
     from .main import raise_if_interrupted
 
@@ -136,6 +142,8 @@ def cmd_bridge(args) -> int:
     print(f"runtime: {status.runtime}")
     print(f"values from: {status.values_from}" + (f" ({status.message})" if status.message else ""))
     print(f"eye size: {w}x{h}; frames: {status.frames}; FPS: {fps}")
+    for line in status.warmup:  # why the start and the first frames took long
+        print(f"warm-up: {line}")
     for eye in sorted(status.lights_per_frame):
         print(
             f"{eye} eye: {status.lights_per_frame[eye]} lights per frame, "

@@ -16,10 +16,10 @@ import logging
 import signal
 import sys
 import traceback
-from contextlib import contextmanager
 
 from ..core import memory
 from ..core.errors import BTFMaterialsError
+from ..core.interrupts import deferred
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 1
@@ -45,35 +45,13 @@ def _on_sigint(signum, frame) -> None:
     signal.default_int_handler(signum, frame)
 
 
-@contextmanager
 def signals_held():
-    """Ctrl-C and SIGTERM recorded but not raised inside the block, raised when it ends.
-
-    For work that must not stop halfway: ``import bpy`` runs Blender's start-up (its own
-    add-ons register classes), and an interrupt there left a half-registered Blender that
-    segfaulted on the way out; so did one inside our add-on's register/unregister."""
-    held = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
-    start = len(signals_received)
-    try:
-        signal.signal(signal.SIGINT, _record)
-        signal.signal(signal.SIGTERM, _record)
-    except ValueError:  # not the main thread: nothing to hold
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, held[0])
-        signal.signal(signal.SIGTERM, held[1])
-    during = signals_received[start:]  # only these: one handled before is not raised again
-    if signal.SIGTERM in during:
-        raise Terminated(f"signal {signal.SIGTERM}")
-    if during:
-        raise KeyboardInterrupt
-
-
-def _record(signum, _frame) -> None:
-    signals_received.append(signum)
+    """Ctrl-C and SIGTERM recorded but not raised inside the block, raised when it ends
+    (core/interrupts.py ``deferred``: delivered to this module's handlers then). For work that
+    must not stop halfway: ``import bpy`` runs Blender's start-up (its own add-ons register
+    classes), and an interrupt there left a half-registered Blender that segfaulted on the way
+    out; so did one inside our add-on's register/unregister."""
+    return deferred()
 
 
 def raise_if_interrupted() -> None:

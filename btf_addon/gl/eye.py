@@ -10,8 +10,10 @@ at the next subpixel offset (gl/drawer.py): a still head converges to an anti-al
 within the same K-lights budget — the frame budget measures the jittered batches' cost too.
 
 ``HeadsetEye`` is the whole eye as both VR paths keep it: that image, the ``FrameBudget`` that
-picks K from the intervals between the eye's frames, and the HUD quad (gl/hud.py) with its
-text (render/hud.py) re-rasterised at most every ``HUD_REFRESH_S``. What differs between the
+picks K from the intervals between the eye's frames (or, given a ``SharedBudget``, the one
+budget of all the eyes of a frame: one decision per frame, the same K for every eye; the
+bridge's eyes share one), and the HUD quad (gl/hud.py) with its text (render/hud.py)
+re-rasterised at most every ``HUD_REFRESH_S``. What differs between the
 paths is passed in, never subclassed: the drawing device (Blender's ``gpu`` or moderngl), the
 clock, the budget each frame (the runtime's display period in the bridge, the panel's in
 Blender), where the eye sits on the head and the HUD's extra lines. ``HeadsetSettings`` is
@@ -20,12 +22,14 @@ what the user sets for both paths alike (``scene.btf_vr``, ``scene.btf_bridge``,
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.mat4 import inverse
 from ..render.frame_budget import HEAD_STILL_TOLERANCE, FrameBudget, view_moved
 from ..render.hud import MAX_CHARS, MAX_LINES, hud_quad, raster_text, status_lines
 from ..render.lighting import frame_lights
@@ -85,7 +89,7 @@ class EyeAccumulation:
             self.release()
             self.view = ViewAccumulation(drawer.device, *size)
         view = self.view
-        world_from_view = np.linalg.inv(view_from_world)
+        world_from_view = inverse(view_from_world)
         towards_viewer = world_from_view[:3, 2]
         lights_key = (settings.lighting, settings.lights_total, settings.seed, drawer.serial)
         if settings.lighting is Lighting.HEADLIGHT:  # the headlight follows the head
@@ -115,9 +119,39 @@ class EyeAccumulation:
         self.view, self._lights_key = None, None
 
 
+class SharedBudget:
+    """One ``FrameBudget`` for all the eyes of a headset's frame (issue 30 item 6: with one
+    budget per eye, each deciding alone on its own intervals, one eye of a paced runtime
+    reached 256 lights per frame while the other stayed at 1).
+
+    K is decided once per frame, when the frame's first eye asks (``lights_for``): a frame
+    starts when an eye asks that already asked since the last decision, so neither the eyes'
+    order nor an index is needed (Blender's VR callback knows neither). The decision is fed
+    the interval since the last one — the whole frame, every eye's work in it — and the lights
+    the eyes drew in the last frame, their mean rounded up: the budget's model then prices a
+    light drawn in every eye, and a frame where one eye had converged (drew none) counts half.
+    Every eye of the frame gets that same K."""
+
+    def __init__(self, budget_s: float, clock: Callable[[], float] = time.perf_counter):
+        self.budget = FrameBudget(budget_s, clock=clock)
+        self.eyes: list[HeadsetEye] = []
+        self.k = self.budget.lights_per_frame
+        self._asked: set[int] = set()
+
+    def lights_for(self, eye: HeadsetEye) -> int:
+        """K for ``eye``'s frame that starts now (its ``drawn``: the lights of its last)."""
+        if not self._asked or id(eye) in self._asked:
+            drawn = [e.drawn for e in self.eyes] or [eye.drawn]
+            self.k = self.budget.frame(math.ceil(sum(drawn) / len(drawn)))
+            self._asked.clear()
+        self._asked.add(id(eye))
+        return self.k
+
+
 class HeadsetEye(EyeAccumulation):
     """One eye of a headset between frames (module docstring): its accumulation (``advance``,
-    ``view``, ``drawn``), ``budget`` (its ``FrameBudget`` on ``clock``) and its HUD
+    ``view``, ``drawn``), ``budget`` (its ``FrameBudget`` on ``clock``; with ``shared``, the
+    ``SharedBudget``'s one budget of all the eyes, which this eye joins) and its HUD
     (``hud_lines``, ``hud_image``, ``hud``, drawn on ``device``)."""
 
     def __init__(
@@ -125,10 +159,16 @@ class HeadsetEye(EyeAccumulation):
         device: Device,
         budget_s: float,
         clock: Callable[[], float] = time.perf_counter,
+        shared: SharedBudget | None = None,
     ):
         super().__init__()
         self.device, self.clock = device, clock
-        self.budget = FrameBudget(budget_s, clock=clock)
+        self.shared = shared
+        if shared is not None:
+            shared.eyes.append(self)
+            self.budget = shared.budget
+        else:
+            self.budget = FrameBudget(budget_s, clock=clock)
         self.fixed_k: int | None = None  # this frame's fixed K; None: the budget's
         self.hud: HudDrawer | None = None  # one per eye: the eyes' texts differ (own times)
         self.hud_lines: list[str] = []
@@ -140,11 +180,17 @@ class HeadsetEye(EyeAccumulation):
     ) -> int:
         """K for the frame that starts now (call once per frame, before ``advance``): the
         fixed ``lights_per_frame``, or the budget's from the interval since the last call and
-        the lights drawn in it, holding ``budget_s`` from now on (None: the budget it held)."""
+        the lights drawn in it (shared: the frame's one decision, ``SharedBudget``), holding
+        ``budget_s`` from now on (None: the budget it held)."""
         if budget_s:
             self.budget.budget_s = budget_s
         self.fixed_k = lights_per_frame
-        k = self.budget.frame(self.drawn) if lights_per_frame is None else lights_per_frame
+        if lights_per_frame is not None:
+            k = lights_per_frame
+        elif self.shared is not None:
+            k = self.shared.lights_for(self)
+        else:
+            k = self.budget.frame(self.drawn)
         self.drawn = 0
         return k
 

@@ -4,12 +4,15 @@ frame holds a frame-time budget (11 ms for a 90 Hz headset), and when a view has
 Blender's ``gpu`` module has no timer query, so the only clock is the interval between
 successive calls of the same eye's draw callback: it covers everything that happens between
 them (this eye's K lights and resolve, the other eye, Blender's own drawing, the runtime's
-frame pacing). One ``FrameBudget`` per eye; ``frame(lights_drawn)`` is called at the start of
-each callback with the number of lights that eye added in its previous frame, and returns K.
-Both eyes' work lies in each eye's intervals: in a steady stereo frame the two controllers see
-the same intervals and settle on the same K (the cost per light they fit is that of a light in
-both eyes). When one eye converges first, the other's intervals shrink while its own K does
-not change, and its model needs a few frames to follow (the ×2 growth bounds the step).
+frame pacing). ``frame(lights_drawn)`` is called at the start of each frame with the number
+of lights added in the previous one, and returns K.
+
+One ``FrameBudget`` per headset frame, shared by its eyes (gl/eye.py ``SharedBudget``: called
+once per frame with the mean of the lights the eyes drew, the same K for every eye), so the
+cost per light it fits is that of a light in every eye. One per eye, each called in its own
+callback, sees the same intervals in a steady frame, but decides alone (its held spikes, its
+ceiling, its probes): against a paced runtime the eyes' Ks parted, one at 256 lights per
+frame and the other at 1 (issue 30 item 6).
 
 The rule (one sample per call, the interval ``t`` of the frame that drew ``k`` lights):
 

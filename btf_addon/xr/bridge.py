@@ -8,7 +8,8 @@ touch values under a lock, taken by the frame loop at its next frame.
 
 Per eye a ``gl/eye.HeadsetEye``, the same object Blender's VR session callback keeps (one
 ``ViewAccumulation`` over the one ``ProgressiveDrawer``): the lights of
-``render/lighting.frame_lights``, K of them per frame fixed or from its ``FrameBudget``
+``render/lighting.frame_lights``, K of them per frame fixed or from the eyes' one
+``SharedBudget`` (one decision per frame, the same K for both eyes)
 (budget: the runtime's predicted display period unless set, the profile's refresh before the
 runtime says), a restart when the eye's matrices moved (``view_moved``), the resolve drawn into
 the acquired swapchain image (sizes equal: the resolve fetches at the fragment's own
@@ -41,8 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.interrupts import deferred
 from ..gl.drawer import ProgressiveDrawer
-from ..gl.eye import HeadsetEye, HeadsetSettings
+from ..gl.eye import HeadsetEye, HeadsetSettings, SharedBudget
 from ..render.headsets import profile as headset_profile
 from ..render.headsets import projection_from_fov
 from ..render.settings import RenderSettings
@@ -76,6 +78,8 @@ log = logging.getLogger(__name__)
 EYES = ("left", "right")
 IDLE_WAIT_S = 0.005  # between polls while the session is not running yet
 PLACEMENTS = ("space", "camera")
+WARMUP_FRAMES = 3  # the first frames' times are always explained (status, log, CLI)
+SLOW_WORK_S = 0.1  # a later frame with this much compiling/uploading is explained too
 START_TIMEOUT_S = 30.0  # run_bridge: no frame by then → the session never started
 STOP_TIMEOUT_S = 10.0  # run_bridge: the runtime never ended the session after the request
 # OpenXR's spaces are +y up, Blender's world +z up: (x, y, z) → (x, −z, y).
@@ -107,7 +111,13 @@ class BridgeStatus:
     """A snapshot for the operator's header and the CLI: ``runtime`` name; ``state`` (the
     session's, or "not started"/"ended"); ``fps`` (submitted frames per second, smoothed);
     per eye ``lights_per_frame`` (K) and ``lights_done``; ``eye_size`` (w, h); ``values_from``:
-    "runtime" or "profile <name>" (then ``message`` says which values); ``message``."""
+    "runtime" or "profile <name>" (then ``message`` says which values); ``message``;
+    ``warmup``: why the start and the first frames took long, one line each ("start: 0.56 s
+    (OpenXR session and GL context 0.47 s, shader compile 0.08 s)", "frame 1: 0.18 s (first
+    draws 0.10 s)": parts of 5 ms or more, xr/bridge_device.py), and any later frame slowed by
+    compiling or uploading (a new scene); the latest also leads ``message`` while the run
+    warms up (before the first line: "warming up: opening the OpenXR session", "warming up:
+    compiling shaders, uploading the scene")."""
 
     runtime: str = ""
     state: str = "not started"
@@ -118,6 +128,7 @@ class BridgeStatus:
     values_from: str = "runtime"
     message: str = ""
     frames: int = 0
+    warmup: tuple[str, ...] = ()
 
 
 def world_from_space(world_from_camera: np.ndarray, head_in_space: np.ndarray) -> np.ndarray:
@@ -171,6 +182,7 @@ class XRBridge:
         self._status = BridgeStatus(values_from="runtime")
         self.gl = self.session = self.device = self.drawer = self.controls = None
         self.eyes: list[HeadsetEye] = []
+        self.budget: SharedBudget | None = None
         self.held: list = []  # per eye, the LocatedView held while converging
         self.world_from_space: np.ndarray | None = None
         self.frames = 0  # submitted frames
@@ -178,6 +190,8 @@ class XRBridge:
         self._fps: float | None = None
         self._last_frame_t: float | None = None
         self._message = ""
+        self.warmup: list[str] = []  # BridgeStatus.warmup
+        self._warming: str | None = None  # what leads the status message while warming up
 
     # --- thread-safe API ----------------------------------------------------------------------
     @property
@@ -207,18 +221,29 @@ class XRBridge:
     def start(self) -> None:
         """Context, OpenXR session, drawer. Raises BridgeError subclasses (and releases what
         was made)."""
-        from ..gl.moderngl_device import ModernGLDevice
+        from .bridge_device import BridgeDevice
         from .session import XRSession
 
         try:
+            started = self.clock()
+            self._warming = "warming up: opening the OpenXR session"
+            self._publish()
             size = (self.profile.eye_width, self.profile.eye_height)
             self.session = XRSession(self.settings.resolution_scale, size)
             self.session.open()
+            opened = self.clock()
             self.gl = self.session.gl
-            self.device = ModernGLDevice(self.gl.ctx)
+            self.device = BridgeDevice(self.gl.ctx, self.clock)
+            self._warming = "warming up: compiling shaders, uploading the scene"
+            self._publish()
             self.drawer = ProgressiveDrawer(self.device, self._scene)
+            self._explain(
+                "start", self.clock() - started, {"OpenXR session and GL context": opened - started}
+            )
             budget = self.settings.budget_s or self.profile.frame_budget_s
-            self.eyes = [HeadsetEye(self.device, budget, self.clock) for _ in EYES]
+            # One budget decision per frame, the same K for both eyes (gl/eye.py SharedBudget).
+            self.budget = SharedBudget(budget, self.clock)
+            self.eyes = [HeadsetEye(self.device, budget, self.clock, self.budget) for _ in EYES]
             self.held = [None] * len(EYES)
             self._start_controls()
         except BaseException:
@@ -256,6 +281,7 @@ class XRBridge:
             raise
         if session.exiting:
             self.ended = True
+            self._warming = None
             self._set_state("ended")
             return False
         if not session.running:
@@ -267,8 +293,10 @@ class XRBridge:
         if scene is not None:
             self.drawer = ProgressiveDrawer(self.device, scene, previous=self.drawer)
             self._scene = scene
+        frame_started = self.clock()
         info = session.frame(self._draw_eye)
         if info.submitted:
+            self._explain_frame(self.frames + 1, self.clock() - frame_started)
             if self.settings.capture_dir is not None:
                 self._capture(info)
             self.frames += 1
@@ -289,6 +317,28 @@ class XRBridge:
                     self._edits.extend(edits)
         self._publish()
         return True
+
+    # --- warm-up (issue 30 item 7) ------------------------------------------------------------
+    def _explain(self, what: str, seconds: float, before: dict[str, float] | None = None) -> None:
+        """One line of ``warmup``: ``what`` took ``seconds``, of which the device's compiling,
+        uploading and first draws (xr/bridge_device.py) and ``before``'s parts; logged and
+        leading the status message while the run warms up."""
+        parts = {**(before or {}), **self.device.take_spent()}
+        detail = ", ".join(f"{kind} {t:.2f} s" for kind, t in parts.items() if t >= 0.005)
+        line = f"{what}: {seconds:.2f} s" + (f" ({detail})" if detail else "")
+        self.warmup.append(line)
+        self._warming = f"warming up: {line}"
+        log.info("%s", line)
+
+    def _explain_frame(self, number: int, seconds: float) -> None:
+        """The first frames always; a later one when compiling or uploading slowed it."""
+        slowed = sum(self.device.spent.values()) >= SLOW_WORK_S
+        if number <= WARMUP_FRAMES or slowed:
+            self._explain(f"frame {number}", seconds)
+        else:
+            self.device.take_spent()
+        if number >= WARMUP_FRAMES and not slowed:  # warmed up: the status message moves on
+            self._warming = None
 
     # --- one eye ------------------------------------------------------------------------------
     def _draw_eye(self, index: int, located, chain, framebuffer):
@@ -390,6 +440,8 @@ class XRBridge:
             message = f"{used} from profile {self.profile.name}" + (
                 f"; {message}" if message else ""
             )
+        if self._warming:  # first: what the user waits for
+            message = self._warming + (f"; {message}" if message else "")
         status = BridgeStatus(
             runtime=session.runtime_name if session is not None else "",
             state=state or (session.state if session is not None else "not started"),
@@ -404,6 +456,7 @@ class XRBridge:
             values_from=f"profile {self.profile.name}" if from_profile else "runtime",
             message=message,
             frames=self.frames,
+            warmup=tuple(self.warmup),
         )
         with self._lock:
             self._status = status
@@ -450,25 +503,44 @@ class XRBridge:
         write_frame(Path(self.settings.capture_dir), self.frames, eyes)
 
     def close(self) -> None:
-        """Release everything in reverse order (idempotent; safe after a failed start)."""
+        """Release everything in reverse order (idempotent; safe after a failed start, and
+        after an interrupt at any point of a frame): the controllers, the open frame and the
+        session ended (xr/session.py ``stop``), GL finished, our GL objects, then the OpenXR
+        chain and the context. Ctrl-C and SIGTERM are held back meanwhile and delivered when
+        all is released (core/interrupts.py)."""
+        with deferred():
+            self._close()
+            if not self.ended:
+                self._publish("closed")
+
+    def _close(self) -> None:
         if self.controls is not None:
-            self.controls.close()
+            _quietly(self.controls.close)
             self.controls = None
-        if self.gl is not None and self.gl.context is not None:
-            self.gl.make_current()
+        session = self.session
+        if session is not None:
+            session.stop()
+            session.finish_gl()
+        elif self.gl is not None and self.gl.context is not None:
+            _quietly(self.gl.make_current)
         for eye in self.eyes:
-            eye.release()
+            _quietly(eye.release)
         if self.drawer is not None:
-            self.drawer.release()
+            _quietly(self.drawer.release)
             self.drawer = None
         if self.device is not None:
-            self.device.close()
+            _quietly(self.device.close)
             self.device = None
-        if self.session is not None:
-            self.session.close()  # closes the GL context last
+        if session is not None:
+            session.close()  # glFinish, swapchains, session, instance; the GL context last
         self.gl = None
-        if not self.ended:
-            self._publish("closed")
+
+
+def _quietly(fn, *args) -> None:
+    try:
+        fn(*args)
+    except Exception as exc:  # shutdown goes on whatever one step says
+        log.warning("%s during shutdown: %s", getattr(fn, "__qualname__", fn), exc)
 
 
 def run_bridge(
@@ -511,6 +583,8 @@ def run_bridge(
                     STOP_TIMEOUT_S,
                 )
                 break
-        return bridge.status
     finally:
         bridge.close()
+    if stop_check is not None:
+        stop_check()
+    return bridge.status

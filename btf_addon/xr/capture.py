@@ -26,15 +26,24 @@ import numpy as np
 
 from ..core.fileio import atomic_write
 from ..core.formats.imageio import write_exr
+from ..core.interrupts import deferred
 
 
 def write_frame(directory: Path, frame: int, eyes: list[tuple[str, np.ndarray, dict]]) -> None:
     """Both eyes of one frame, whole or not at all: ``eyes`` holds per eye its name, the image
     ((h, w, 4) float32 linear RGBA, row 0 at the BOTTOM, OpenGL's readback) and ``meta`` (the
     JSON gets ``frame``, ``eye`` and ``image`` too). Every file is first written under a
-    staging name, then all are renamed; an interrupt or error anywhere removes what this
-    frame had written, so a check never finds a left eye without its right, or an EXR without
-    its JSON."""
+    staging name, then all are renamed; an error anywhere removes what this frame had
+    written, so a check never finds a left eye without its right, or an EXR without its JSON.
+    Ctrl-C and SIGTERM are held back while the frame is written (core/interrupts.py; one
+    frame's files, then the interrupt lands): one landing in the cleanup itself, or between a
+    rename and its record, would leave part of a frame (tests/xr/test_bridge_interrupts.py
+    found both)."""
+    with deferred():
+        _write_frame(directory, frame, eyes)
+
+
+def _write_frame(directory: Path, frame: int, eyes: list[tuple[str, np.ndarray, dict]]) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     staged: list[tuple[Path, Path]] = []
     placed: list[Path] = []

@@ -11,6 +11,16 @@ Every OpenXR call's failure becomes a ``BridgeError`` subclass (xr/errors.py) wh
 names the call; results that are successes with a qualifier (``XR_FRAME_DISCARDED``,
 ``XR_SESSION_LOSS_PENDING``, ``XR_EVENT_UNAVAILABLE``: pyopenxr raises them) are handled where
 they occur.
+
+Interrupts (issue 30 item 1): every change of the protocol's state — ``open``, the events,
+one ``frame`` from xrWaitFrame to xrEndFrame, ``close`` — runs with Ctrl-C and SIGTERM held
+back (core/interrupts.py), so the flags below always say what the runtime holds; only
+``draw_eye`` takes a Ctrl-C at once, and ``frame`` then releases the image and ends the frame
+with no layers before the interrupt leaves it. ``close`` brings any state to the end the spec
+allows, in order: release an acquired image, end a begun frame (no layers), request exit and
+end the session once the runtime says STOPPING (the frame loop kept going with empty frames,
+at most ``STOP_TIMEOUT_S``), glFinish, then release our framebuffers of the swapchain images and
+destroy swapchains, space, session, instance, and last the GL context.
 """
 
 from __future__ import annotations
@@ -20,8 +30,10 @@ import json
 import logging
 import os
 import sys
+import time
 from collections.abc import Callable
 
+from ..core.interrupts import allowed, deferred
 from .desktop_gl import desktop_kind, make_context
 from .errors import (
     BridgeError,
@@ -42,6 +54,7 @@ from .views import (
 
 log = logging.getLogger(__name__)
 
+STOP_TIMEOUT_S = 2.0  # close(): how long the runtime may take to end a session we asked to end
 APP_NAME = "BTF Materials XTAL bridge"
 KHR_OPENGL = "XR_KHR_opengl_enable"
 MNDX_EGL = "XR_MNDX_egl_enable"
@@ -131,6 +144,9 @@ class XRSession:
         self.running = False  # between xrBeginSession and xrEndSession
         self.exiting = False  # EXITING seen: the loop is over
         self.exit_requested = False
+        self.lost = False  # the runtime lost the session: nothing more to end, only destroy
+        self.frame_begun = False  # xrBeginFrame succeeded, xrEndFrame not yet
+        self._display_time = 0  # the last xrWaitFrame's predicted display time
         self.period_s: float | None = None
         self.located: tuple[LocatedView, ...] = ()
         self._binding = None  # kept alive while the session exists
@@ -138,16 +154,19 @@ class XRSession:
 
     # --- creation ---------------------------------------------------------------------------
     def open(self) -> None:
-        try:
-            self._create_instance()
-            self._get_system()
-            self._check_views()
-            self._create_session()
-            self._create_space()
-            self._create_swapchains()
-        except BaseException:
-            self.close()
-            raise
+        """Make the chain, with interrupts held back: a Ctrl-C meanwhile lands after the
+        chain is whole (or released, on an error)."""
+        with deferred():
+            try:
+                self._create_instance()
+                self._get_system()
+                self._check_views()
+                self._create_session()
+                self._create_space()
+                self._create_swapchains()
+            except BaseException:
+                self.close()
+                raise
 
     def _call(self, name: str, fn: Callable, *args, error=UnsupportedRuntimeError, hint=""):
         """Run an OpenXR call; a failure → ``error`` naming the call (and the lost-session
@@ -156,6 +175,7 @@ class XRSession:
         try:
             return fn(*args)
         except (openxr.SessionLostError, openxr.InstanceLostError) as exc:
+            self.lost = True
             raise SessionLostError(
                 f"{name}: the runtime lost the session ({type(exc).__name__}); restart the "
                 "runtime/headset and the bridge"
@@ -376,7 +396,12 @@ class XRSession:
     # --- the state machine --------------------------------------------------------------------
     def poll_events(self) -> None:
         """Handle every queued event: READY → xrBeginSession; STOPPING → xrEndSession;
-        EXITING → over; LOSS_PENDING and instance loss → SessionLostError."""
+        EXITING → over; LOSS_PENDING and instance loss → SessionLostError. Interrupts held
+        back (a state change and its flag go together)."""
+        with deferred():
+            self._poll_events()
+
+    def _poll_events(self) -> None:
         openxr = self.xr
         while True:
             try:
@@ -389,6 +414,7 @@ class XRSession:
                 event._type
             )  # the raw field: an extension's event may be unknown to the enum
             if kind == openxr.StructureType.EVENT_DATA_INSTANCE_LOSS_PENDING.value:
+                self.lost = True
                 raise SessionLostError(
                     f"the runtime {self.runtime_name!r} is going away (instance loss pending)"
                 )
@@ -418,6 +444,7 @@ class XRSession:
             self.exiting = True
         elif state == openxr.SessionState.LOSS_PENDING:
             self.running = False
+            self.lost = True
             raise SessionLostError(
                 f"the runtime {self.runtime_name!r} lost the session (LOSS_PENDING): the "
                 "headset was disconnected or the runtime stopped"
@@ -425,13 +452,14 @@ class XRSession:
 
     def request_exit(self) -> None:
         """Ask the runtime to end the session (it goes STOPPING → IDLE → EXITING)."""
-        if self.session is None or self.exit_requested:
-            return
-        self.exit_requested = True
-        if not self.running:  # never began: nothing to stop, the loop simply ends
-            self.exiting = True
-            return
-        self._call("xrRequestExitSession", self.xr.request_exit_session, self.session)
+        with deferred():
+            if self.session is None or self.exit_requested:
+                return
+            self.exit_requested = True
+            if not self.running:  # never began: nothing to stop, the loop simply ends
+                self.exiting = True
+                return
+            self._call("xrRequestExitSession", self.xr.request_exit_session, self.session)
 
     # --- one frame ----------------------------------------------------------------------------
     def frame(
@@ -445,11 +473,32 @@ class XRSession:
         the runtime says not to render, the views are not tracked, or an exit was requested:
         the spec wants the frame loop to go on until STOPPING, which may take frames, and
         those frames carry no layer, so a run of N frames submits N images)."""
+        with deferred():  # draw_eye alone takes a Ctrl-C at once (module docstring)
+            return self._frame(draw_eye)
+
+    def _frame(self, draw_eye) -> FrameInfo:
         openxr = self.xr
         state = self._call("xrWaitFrame", openxr.wait_frame, self.session)
         period_s = state.predicted_display_period / 1e9
         self.period_s = period_s if period_s > 0 else self.period_s
-        display_time = state.predicted_display_time
+        display_time = self._display_time = state.predicted_display_time
+        self._begin_frame()
+        views: tuple[LocatedView, ...] = ()
+        layers = []
+        try:
+            if state.should_render and not self.exit_requested:
+                views, layer = self._render(display_time, draw_eye)
+                if layer is not None:
+                    layers.append(ctypes.byref(layer))
+        except BaseException:  # an interrupt or error while drawing: end it as the spec asks
+            self.abandon_frame()
+            raise
+        self._end_frame(display_time, layers)
+        self._layer_keepalive = []
+        return FrameInfo(int(display_time), period_s, views, bool(layers))
+
+    def _begin_frame(self) -> None:
+        openxr = self.xr
         try:
             openxr.begin_frame(self.session)
         except openxr.FrameDiscarded:
@@ -458,12 +507,10 @@ class XRSession:
             pass  # the LOSS_PENDING event follows
         except openxr.XrException:
             self._call("xrBeginFrame", _reraise, sys.exc_info()[1])
-        views: tuple[LocatedView, ...] = ()
-        layers = []
-        if state.should_render and not self.exit_requested:
-            views, layer = self._render(display_time, draw_eye)
-            if layer is not None:
-                layers.append(ctypes.byref(layer))
+        self.frame_begun = True
+
+    def _end_frame(self, display_time, layers) -> None:
+        openxr = self.xr
         info = openxr.FrameEndInfo(
             display_time=display_time, environment_blend_mode=self.blend_mode, layers=layers
         )
@@ -472,9 +519,46 @@ class XRSession:
         except openxr.SessionLossPending:
             pass
         except openxr.XrException:
+            self.frame_begun = False  # refused: the runtime holds no frame of ours either way
             self._call("xrEndFrame", _reraise, sys.exc_info()[1])
-        self._layer_keepalive = []
-        return FrameInfo(int(display_time), period_s, views, bool(layers))
+        self.frame_begun = False
+
+    def abandon_frame(self) -> None:
+        """End what a frame left open (idempotent; failures logged): every acquired
+        swapchain image released (waited first, as the spec orders), a begun frame ended with
+        no layers."""
+        with deferred():
+            for chain in self.swapchains:
+                if chain.acquired:
+                    if not chain.waited:
+                        _quietly(self._wait_image, chain)
+                    _quietly(self._release_image, chain)
+                    chain.acquired = chain.waited = False
+            if self.frame_begun and self.session is not None and not self.lost:
+                _quietly(self._end_frame, self._display_time, [])
+            self.frame_begun = False
+            self._layer_keepalive = []
+
+    def _acquire_image(self, chain: EyeSwapchain) -> int:
+        image = self._call("xrAcquireSwapchainImage", self.xr.acquire_swapchain_image, chain.handle)
+        chain.acquired = True
+        return image
+
+    def _wait_image(self, chain: EyeSwapchain) -> None:
+        openxr = self.xr
+        self._call(
+            "xrWaitSwapchainImage",
+            openxr.wait_swapchain_image,
+            chain.handle,
+            openxr.SwapchainImageWaitInfo(timeout=openxr.INFINITE_DURATION),
+        )
+        chain.waited = True
+
+    def _release_image(self, chain: EyeSwapchain) -> None:
+        try:
+            self._call("xrReleaseSwapchainImage", self.xr.release_swapchain_image, chain.handle)
+        finally:
+            chain.acquired = chain.waited = False
 
     def _render(self, display_time, draw_eye):
         openxr = self.xr
@@ -500,20 +584,12 @@ class XRSession:
         projection_views = (openxr.CompositionLayerProjectionView * len(views))()
         submitted: list[LocatedView] = []
         for index, chain in enumerate(self.swapchains):
-            image = self._call(
-                "xrAcquireSwapchainImage", openxr.acquire_swapchain_image, chain.handle
-            )
-            self._call(
-                "xrWaitSwapchainImage",
-                openxr.wait_swapchain_image,
-                chain.handle,
-                openxr.SwapchainImageWaitInfo(timeout=openxr.INFINITE_DURATION),
-            )
-            try:
-                self.gl.make_current()
+            image = self._acquire_image(chain)
+            self._wait_image(chain)
+            self.gl.make_current()
+            with allowed():  # the long part: a Ctrl-C lands here at once (_frame ends it)
                 drawn = draw_eye(index, views[index], chain, chain.framebuffers[image])
-            finally:
-                self._call("xrReleaseSwapchainImage", openxr.release_swapchain_image, chain.handle)
+            self._release_image(chain)
             pv = projection_views[index]
             pv.type = openxr.StructureType.COMPOSITION_LAYER_PROJECTION_VIEW.value
             submitted.append(drawn or views[index])
@@ -528,16 +604,62 @@ class XRSession:
         return tuple(submitted), layer
 
     # --- shutdown -----------------------------------------------------------------------------
+    def stop(self, timeout_s: float = STOP_TIMEOUT_S) -> None:
+        """End the session the way the spec allows (idempotent; failures logged): the open
+        frame ended, xrRequestExitSession, then the frame loop kept going with empty frames
+        until the runtime says STOPPING and xrEndSession is called (``poll_events``), for at
+        most ``timeout_s``. Nothing to do when the session never ran, has ended or was lost."""
+        with deferred():
+            self.abandon_frame()
+            if self.session is None or self.lost or not self.running:
+                return
+            if not self.exit_requested:
+                self.exit_requested = True
+                _quietly(self._call, "xrRequestExitSession", self.xr.request_exit_session,
+                         self.session)  # fmt: skip
+            deadline = time.monotonic() + timeout_s
+            while self.running and not self.lost and time.monotonic() < deadline:
+                try:
+                    self._poll_events()
+                    if self.running and self.state != "STOPPING":
+                        self._frame(lambda *_args: None)  # no layers: exit was requested
+                except Exception as exc:
+                    log.warning("ending the session: %s", exc)
+                    self.abandon_frame()
+                    break
+            if self.running and not self.lost:
+                log.warning(
+                    "the runtime did not end the session within %g s of the request; "
+                    "destroying it running",
+                    timeout_s,
+                )
+
+    def finish_gl(self) -> None:
+        """Wait for every GL command so far (glFinish): nothing may still write into a
+        swapchain image when the runtime frees it."""
+        gl = self.gl
+        # Only a context moderngl was attached to has drawn (``ctx`` would attach one).
+        if gl is not None and gl.context is not None and getattr(gl, "_ctx", None) is not None:
+            _quietly(gl.make_current)
+            _quietly(gl.ctx.finish)
+
     def close(self) -> None:
-        """Release in reverse order; each step's failure is logged, never raised (a lost
-        session may refuse some of them)."""
+        """Release in reverse order (module docstring: the frame and the session ended
+        first, GL finished); each step's failure is logged, never raised (a lost session may
+        refuse some of them); interrupts held back until all is released."""
+        with deferred():
+            self._close()
+
+    def _close(self) -> None:
         openxr = self.xr
-        if self.gl is not None and self.gl.context is not None:
-            self.gl.make_current()
+        self.stop()
+        self.finish_gl()
         for chain in self.swapchains:
             for fbo in chain.framebuffers:  # ours; the textures are the runtime's to delete
                 _quietly(fbo.release)
             chain.framebuffers, chain.textures = [], []
+        self.finish_gl()
+        for chain in self.swapchains:
             _quietly(openxr.destroy_swapchain, chain.handle)
         self.swapchains = []
         if self.space is not None:
@@ -550,7 +672,7 @@ class XRSession:
         self._binding = None
         self.running = False
         if self.gl is not None:  # after the session: the runtime used it until then
-            self.gl.close()
+            _quietly(self.gl.close)
             self.gl = None
 
 

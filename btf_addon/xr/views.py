@@ -28,7 +28,8 @@ FORMATS: dict[int, tuple[str, bool, str]] = {
 @dataclass
 class EyeSwapchain:
     """One eye's swapchain: ``handle``; ``width`` × ``height`` pixels; ``images``: the GL
-    texture names; ``textures``, ``framebuffers``: moderngl wrappers of them, one per image."""
+    texture names; ``textures``, ``framebuffers``: moderngl wrappers of them, one per image;
+    ``acquired``/``waited``: where the image protocol stands (what a teardown must end)."""
 
     handle: object
     width: int
@@ -36,6 +37,8 @@ class EyeSwapchain:
     images: list[int]
     textures: list = field(default_factory=list)
     framebuffers: list = field(default_factory=list)
+    acquired: bool = False  # an image acquired and not yet released
+    waited: bool = False  # ... and waited (xrWaitSwapchainImage)
 
 
 @dataclass(frozen=True)

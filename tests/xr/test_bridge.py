@@ -76,8 +76,19 @@ def head(dx: float = 0.0, yaw: float = 0.0, placement: str = "space") -> list[fl
     return [STANDING[0] + dx, STANDING[1], STANDING[2], 0.0, math.sin(half), 0.0, math.cos(half)]
 
 
+@pytest.fixture(autouse=True)
+def clean_teardown(capfd):
+    """Every bridge run here ends in the order the spec allows: the test runtime logs each
+    teardown hazard Monado crashed on ("strict_teardown": "log", set by ``script``), and
+    none may appear (tests/xr/test_bridge_interrupts.py makes them fatal)."""
+    yield
+    err = capfd.readouterr().err
+    assert "strict teardown" not in err, err
+
+
 def script(xr_runtime, **overrides):
     values = {
+        "strict_teardown": "log",
         "eye_size": list(EYE),
         "ipd": IPD,
         "fov": {"left": FOV_LEFT, "right": FOV_RIGHT},

@@ -52,14 +52,18 @@ def script(xr_runtime, **overrides):
 
 
 def test_bridge_runs_frames_prints_what_it_used_and_captures(xr_runtime, blend, tmp_path):
-    script(xr_runtime)
+    script(xr_runtime, strict_teardown="log")  # the runtime logs any teardown Monado crashed on
     cap = tmp_path / "cap"
     proc = run_cli(
         "bridge", "--blend", blend, "--frames", "6", "--capture", cap, "--converge",
         "--lights", "8", env=cli_env(),
     )  # fmt: skip
     out = proc.stdout
+    assert "strict teardown" not in proc.stderr, proc.stderr
     assert "runtime: BTF test runtime" in out
+    # Why the start and the first frames took what they took (issue 30 item 7).
+    assert "warm-up: start: " in out and "OpenXR session and GL context" in out
+    assert "warm-up: frame 1: " in out
     assert "values from: runtime" in out
     assert "eye size: 40x30; frames: 6" in out and "FPS:" in out
     assert "left eye:" in out and "lights per frame" in out
@@ -136,3 +140,37 @@ def test_bridge_with_a_manifest_naming_a_missing_library(blend, tmp_path):
     library = tmp_path / "gone" / "libruntime.so"
     assert f"the runtime library it names, {library}, does not exist" in proc.stderr
     assert "does not exist" in proc.stderr and "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+def test_ctrl_c_in_the_frame_loop_exits_130_and_ends_the_session(xr_runtime, blend, signum):
+    """The real CLI process, no --frames: a signal once frames flow ends it with 130 and one
+    line, after ending the frame and the session in the order the spec allows (the runtime's
+    strict teardown would abort the process otherwise: issue 30 item 1)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from helpers import ROOT
+
+    script(xr_runtime, strict_teardown=True, head_motion=[0.002, 0.002], pace=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "btf_addon", "bridge", "--blend", str(blend), "--hud"],
+        cwd=ROOT, env=cli_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        while len(xr_runtime.captured()) < 3 and proc.poll() is None:
+            assert time.monotonic() < deadline, "no frames within 120 s"
+            time.sleep(0.05)
+        proc.send_signal(getattr(signal, signum))
+        _out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, err
+    what = "interrupted" if signum == "SIGINT" else "terminated"
+    assert f"{what}: stopped" in err and "Traceback" not in err
+    assert "strict teardown" not in err

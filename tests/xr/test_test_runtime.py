@@ -690,3 +690,107 @@ def test_an_unreadable_format_is_captured_as_zeros_and_said_so(xr_runtime, app_f
     views = xr_runtime.captured()[0].views
     assert not views[0].readback_ok and not views[0].image.any()
     assert "captured as zeros" in capfd.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------------
+# what Monado does (issue 30 item 8): a head never still, paced frames, a teardown that crashes
+def _head_at(app, space, state):
+    _, views = xr.locate_views(
+        app.session,
+        xr.ViewLocateInfo(
+            view_configuration_type=STEREO, display_time=state.predicted_display_time, space=space
+        ),
+    )
+    p, q = views[0].pose.position, views[0].pose.orientation
+    return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w])
+
+
+def test_head_motion_moves_the_head_slightly_every_frame(xr_runtime, app_factory):
+    """``head_motion`` [metres, radians]: every frame's pose differs from the last, by no
+    more than the amplitudes (a sway about the scripted pose, the same for the same frame)."""
+    xr_runtime.script(head_motion=[0.002, 0.004])
+    app = app_factory()
+    space, _ = start_running(app, formats=())
+    poses = []
+    for _ in range(6):
+        state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        poses.append(_head_at(app, space, state))
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=state.predicted_display_time))
+    poses = np.array(poses)
+    steps = np.abs(np.diff(poses, axis=0))
+    assert (steps.max(axis=1) > 1e-5).all(), "a frame kept the last frame's pose"
+    left_eye_still = np.array([-0.0315, 0, 0])  # the default head at the origin, unrotated
+    assert np.abs(poses[:, :3] - left_eye_still).max() <= 0.002 * 1.5 + 1e-6
+    assert np.abs(poses[:, 3:6]).max() <= np.sin(0.004 / 2) + 1e-6  # half the turn's angle
+
+
+def test_pace_hz_from_the_environment(xr_runtime, app_factory, monkeypatch):
+    """BTF_XR_TEST_PACE_HZ paces frames at that rate over the script's period and pace."""
+    monkeypatch.setenv("BTF_XR_TEST_PACE_HZ", "40")
+    xr_runtime.script(pace=False, display_period_s=0.001)
+    app = app_factory()
+    start_running(app, formats=())
+    start = time.monotonic()
+    for _ in range(4):
+        state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+        assert state.predicted_display_period == 25_000_000
+        xr.begin_frame(app.session, xr.FrameBeginInfo())
+        xr.end_frame(app.session, xr.FrameEndInfo(display_time=state.predicted_display_time))
+    assert time.monotonic() - start >= 3 * 0.025
+
+
+STRICT_APP = """
+import sys, ctypes, xr
+from xr_runtime.client import GL_RGBA8, App, start_running
+app = App()
+space, chains = start_running(app, size=(16, 8), formats=(GL_RGBA8, GL_RGBA8))
+app.poll()
+state = xr.wait_frame(app.session, xr.FrameWaitInfo())
+xr.begin_frame(app.session, xr.FrameBeginInfo())
+case = sys.argv[1]
+if case == "acquired":
+    xr.acquire_swapchain_image(chains[0][0], xr.SwapchainImageAcquireInfo())
+    xr.destroy_swapchain(chains[0][0])
+if case in ("clean", "running"):
+    xr.end_frame(app.session, xr.FrameEndInfo(display_time=state.predicted_display_time))
+if case == "clean":
+    xr.request_exit_session(app.session)
+    app.poll()
+    xr.end_session(app.session)
+app.gl.finish()
+app.swapchains = []  # destroyed with the session (its children)
+xr.destroy_session(app.session)
+print("destroyed", flush=True)
+"""
+
+
+@pytest.mark.parametrize(
+    ("case", "words"),
+    [
+        ("begun", "xrDestroySession destroys a session with a frame begun and not ended"),
+        ("acquired", "with an image acquired and not released"),
+        ("running", "destroys a running session"),
+        ("clean", None),
+    ],
+)
+def test_strict_teardown_aborts_where_monado_crashed(xr_runtime, tmp_path, case, words):
+    """``strict_teardown``: a teardown in the order the spec allows passes; one that leaves a
+    frame begun, an image acquired or the session running aborts the process (Monado
+    crashed there: issue 30 item 1), saying why."""
+    import subprocess
+    import sys
+
+    xr_runtime.script(strict_teardown=True)
+    tests_dir = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = {**os.environ, "PYTHONPATH": tests_dir}
+    proc = subprocess.run(
+        [sys.executable, "-c", STRICT_APP, case],
+        capture_output=True, text=True, env=env, timeout=60, check=False,
+    )  # fmt: skip
+    if words is None:
+        assert proc.returncode == 0, proc.stderr
+        assert "destroyed" in proc.stdout and "strict teardown" not in proc.stderr
+    else:
+        assert proc.returncode == -6, (proc.returncode, proc.stderr)  # SIGABRT
+        assert words in proc.stderr

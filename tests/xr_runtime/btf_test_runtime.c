@@ -245,7 +245,7 @@ static XrResult XRAPI_CALL rt_CreateInstance(const XrInstanceCreateInfo *info, X
 static XrResult XRAPI_CALL rt_DestroyInstance(XrInstance instance) {
     RT_LOCKED;
     GET_INSTANCE(inst, instance, "xrDestroyInstance");
-    if (inst->session) rt_session_free(inst->session);
+    if (inst->session) rt_session_free(inst->session, "xrDestroyInstance");
     rt_simple *set; /* action sets (and their actions) are the instance's children */
     while ((set = rt_handle_find_child(RT_ACTION_SET, inst)))
         rt_action_set_free(set);

@@ -47,11 +47,15 @@ typedef struct rt_config {
     long lose_after_frames;  /* -1: never */
     int render_from_visible; /* shouldRender only from VISIBLE (Monado); default: SYNCHRONIZED */
     int pace;                /* xrWaitFrame sleeps until its frame's slot (real time) */
+    double head_motion[2];   /* a sway on the head path: metres, radians (Monado's tracking) */
+    int strict_teardown;     /* 1: abort on what crashed Monado at teardown (rt_strict_*);
+                              * 2 ("log"): log it and go on (to count how often) */
     char capture_dir[4096];  /* "" = no capture */
 } rt_config;
 
-/* Loads the script named by BTF_XR_TEST_SCRIPT (defaults when unset). 0 on success; on a bad
- * script logs why to stderr and returns -1. */
+/* Loads the script named by BTF_XR_TEST_SCRIPT (defaults when unset), then the environment's
+ * BTF_XR_TEST_PACE_HZ (a positive rate: pace on at that display rate, over the script's). 0 on
+ * success; on a bad script or rate logs why to stderr and returns -1. */
 int rt_config_load(rt_config *cfg);
 void rt_config_load_defaults(rt_config *cfg);
 void rt_config_free(rt_config *cfg);
@@ -104,6 +108,10 @@ typedef struct rt_gl {
     void (*PixelStorei)(GLenum, GLint);
     void (*BindBuffer)(GLenum, GLuint);
     GLenum (*GetError)(void);
+    /* fences (GL 3.2; optional): is the app's GL work done? (strict teardown) */
+    GLsync (*FenceSync)(GLenum, GLbitfield);
+    GLenum (*ClientWaitSync)(GLsync, GLbitfield, GLuint64);
+    void (*DeleteSync)(GLsync);
     int srgb_readback; /* 0 unknown, 1 glGetTexImage returns encoded values, 2 it decodes */
     /* saved state of a guard */
     int switched;
@@ -164,18 +172,28 @@ int64_t rt_now_ns(void);
 
 /* sessions and events */
 void rt_set_state(rt_session *s, XrSessionState state);
-void rt_session_free(rt_session *s);
+void rt_session_free(rt_session *s, const char *func); /* func: the destroying call */
 XrResult rt_head_pose(rt_session *s, XrTime t, XrPosef *out);
 void rt_eye_pose(const rt_config *cfg, const XrPosef *head, int view, XrPosef *out);
 XrResult rt_space_world_pose(rt_space *sp, XrTime t, XrPosef *out);
 void rt_pose_mul(const XrPosef *a, const XrPosef *b, XrPosef *out);
 void rt_pose_inv(const XrPosef *a, XrPosef *out);
 
+/* strict teardown (script "strict_teardown", rt_swapchain.c): what Monado crashed on when an
+ * app tore down mid-frame. Each logs the hazard and aborts the process, as Monado crashed (with
+ * "log": logs it only):
+ * destroying a swapchain with an image acquired and not released, or while the app's GL work
+ * may still write into its images (no glFinish: a fence made now is not yet signalled);
+ * destroying a session with a frame begun and not ended, or still running (not ended with
+ * xrEndSession) unless it was lost. func: the call that destroys. */
+void rt_strict_swapchain(rt_swapchain *sc, const char *func);
+void rt_strict_session(rt_session *s, const char *func);
+
 /* GL (rt_swapchain.c) */
 int rt_gl_load(rt_gl *gl, const XrGraphicsBindingEGLMNDX *binding);
 int rt_gl_begin(rt_gl *gl);
 void rt_gl_end(rt_gl *gl);
-void rt_swapchain_free(rt_swapchain *sc);
+void rt_swapchain_free(rt_swapchain *sc, const char *func); /* func: the destroying call */
 XrResult rt_check_quad(rt_session *s, const XrCompositionLayerQuad *quad);
 /* display_time 0: validate the layer only; else also read back and write the capture */
 XrResult rt_capture_frame(rt_session *s, const XrCompositionLayerProjection *layer,

@@ -217,7 +217,29 @@ void rt_config_free(rt_config *cfg) {
         goto fail;                                                       \
     } while (0)
 
+/* BTF_XR_TEST_PACE_HZ: pace on at that display rate (over the script's period and pace) */
+static int pace_from_env(rt_config *cfg) {
+    const char *text = getenv("BTF_XR_TEST_PACE_HZ");
+    if (!text || !*text) return 0;
+    char *end;
+    double hz = strtod(text, &end);
+    if (*end || !(hz > 0) || hz > 10000) {
+        fprintf(stderr, "[BTF test runtime] BTF_XR_TEST_PACE_HZ=%s is not a rate in Hz\n", text);
+        return -1;
+    }
+    cfg->pace = 1;
+    cfg->period_s = 1.0 / hz;
+    return 0;
+}
+
+static int load_script(rt_config *cfg);
+
 int rt_config_load(rt_config *cfg) {
+    if (load_script(cfg)) return -1;
+    return pace_from_env(cfg);
+}
+
+static int load_script(rt_config *cfg) {
     rt_config_load_defaults(cfg);
     const char *path = getenv("BTF_XR_TEST_SCRIPT");
     if (!path || !*path) return 0;
@@ -250,6 +272,8 @@ int rt_config_load(rt_config *cfg) {
         "lose_session_after_frames",
         "should_render_from",
         "pace",
+        "head_motion",
+        "strict_teardown",
         "capture_dir",
     };
     for (int i = 0; i < root.n; i++) {
@@ -350,6 +374,20 @@ int rt_config_load(rt_config *cfg) {
     if ((v = jget(&root, "pace")) && v->t != J_NULL) {
         if (v->t != J_BOOL) BAD("pace must be true or false");
         cfg->pace = v->num != 0;
+    }
+    if ((v = jget(&root, "head_motion")) && v->t != J_NULL) {
+        if (jnums(v, d, 2) || d[0] < 0 || d[1] < 0)
+            BAD("head_motion must be [metres, radians], both >= 0");
+        cfg->head_motion[0] = d[0];
+        cfg->head_motion[1] = d[1];
+    }
+    if ((v = jget(&root, "strict_teardown")) && v->t != J_NULL) {
+        if (v->t == J_STR && !strcmp(v->str, "log"))
+            cfg->strict_teardown = 2;
+        else if (v->t == J_BOOL)
+            cfg->strict_teardown = v->num != 0;
+        else
+            BAD("strict_teardown must be true, false or \"log\"");
     }
     if ((v = jget(&root, "capture_dir")) && v->t != J_NULL) {
         if (v->t != J_STR || v->str[0] != '/' || strlen(v->str) >= sizeof cfg->capture_dir)

@@ -57,12 +57,24 @@ static long frame_at(rt_session *s, XrTime t) {
     return k < 0 ? 0 : (long)llround(k);
 }
 
+/* The script's head at frame k, swayed by head_motion (metres, radians; Monado's tracked head
+ * is never still): a small position offset and a turn about the head's own y axis, different
+ * every frame, the same for the same frame. */
 XrResult rt_head_pose(rt_session *s, XrTime t, XrPosef *out) {
     const rt_config *cfg = &s->instance->cfg;
     long k = frame_at(s, t);
     const double *h = cfg->head[k < cfg->head_count ? k : cfg->head_count - 1];
     XrPosef p = {{(float)h[3], (float)h[4], (float)h[5], (float)h[6]},
                  {(float)h[0], (float)h[1], (float)h[2]}};
+    double m = cfg->head_motion[0], r = cfg->head_motion[1];
+    if (m > 0 || r > 0) {
+        double f = (double)k;
+        double half = 0.5 * r * sin(1.1 * f + 0.3);
+        XrPosef sway = {{0, (float)sin(half), 0, (float)cos(half)},
+                        {(float)(m * sin(0.9 * f)), (float)(0.5 * m * sin(1.7 * f + 1.0)),
+                         (float)(0.5 * m * cos(1.3 * f))}};
+        rt_pose_mul(&p, &sway, &p);
+    }
     *out = p;
     return XR_SUCCESS;
 }
@@ -141,10 +153,11 @@ static XrResult XRAPI_CALL rt_CreateSession(XrInstance instance, const XrSession
     return XR_SUCCESS;
 }
 
-static void destroy_children(rt_session *s);
+static void destroy_children(rt_session *s, const char *func);
 
-void rt_session_free(rt_session *s) {
-    destroy_children(s);
+void rt_session_free(rt_session *s, const char *func) {
+    rt_strict_session(s, func);
+    destroy_children(s, func);
     s->instance->session = NULL;
     rt_handle_remove(s);
     free(s);
@@ -153,7 +166,7 @@ void rt_session_free(rt_session *s) {
 static XrResult XRAPI_CALL rt_DestroySession(XrSession session) {
     RT_LOCKED;
     GET_SESSION(s, session, "xrDestroySession");
-    rt_session_free(s);
+    rt_session_free(s, "xrDestroySession");
     return XR_SUCCESS;
 }
 
@@ -493,11 +506,11 @@ static XrResult XRAPI_CALL rt_LocateViews(XrSession session, const XrViewLocateI
     return XR_SUCCESS;
 }
 
-static void destroy_children(rt_session *s) {
+static void destroy_children(rt_session *s, const char *func) {
     /* spaces, swapchains and action spaces die with their session (the spec's child handles) */
     rt_simple *child;
     while ((child = rt_handle_find_child(RT_SWAPCHAIN, s)))
-        rt_swapchain_free((rt_swapchain *)child);
+        rt_swapchain_free((rt_swapchain *)child, func);
     while ((child = rt_handle_find_child(RT_SPACE, s))) {
         rt_handle_remove(child);
         free(child);

@@ -51,6 +51,9 @@ int rt_gl_load(rt_gl *gl, const XrGraphicsBindingEGLMNDX *b) {
     LOAD(BindBuffer, "glBindBuffer");
     LOAD(GetError, "glGetError");
 #undef LOAD
+    *(void **)&gl->FenceSync = lookup(gl, "glFenceSync"); /* optional: strict teardown only */
+    *(void **)&gl->ClientWaitSync = lookup(gl, "glClientWaitSync");
+    *(void **)&gl->DeleteSync = lookup(gl, "glDeleteSync");
     return 0;
 }
 
@@ -167,7 +170,48 @@ static XrResult XRAPI_CALL rt_CreateSwapchain(XrSession session, const XrSwapcha
     return XR_SUCCESS;
 }
 
-void rt_swapchain_free(rt_swapchain *sc) {
+/* ---- strict teardown (rt.h) ---- */
+static void hazard(const rt_session *s, const char *func, const char *what) {
+    int fatal = s->instance->cfg.strict_teardown == 1;
+    fprintf(stderr, "[BTF test runtime] strict teardown: %s %s; Monado crashes here%s\n", func,
+            what, fatal ? ", so does this runtime (script: strict_teardown)" : "");
+    fflush(stderr);
+    if (fatal) abort();
+}
+
+/* 1 when the app's GL commands so far may still be executing: a fence made now is not yet
+ * signalled (glClientWaitSync with no timeout and no flush; after glFinish Mesa signals it at
+ * once). 0 when done or unknown (no fences, no context). */
+static int gl_work_pending(rt_gl *gl) {
+    if (!gl->FenceSync || !gl->ClientWaitSync || !gl->DeleteSync || rt_gl_begin(gl)) return 0;
+    GLsync fence = gl->FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    GLenum r = fence ? gl->ClientWaitSync(fence, 0, 0) : GL_ALREADY_SIGNALED;
+    if (fence) gl->DeleteSync(fence);
+    rt_gl_end(gl);
+    return r == GL_TIMEOUT_EXPIRED;
+}
+
+void rt_strict_swapchain(rt_swapchain *sc, const char *func) {
+    if (!sc->session->instance->cfg.strict_teardown) return;
+    if (sc->queued)
+        hazard(sc->session, func, "destroys a swapchain with an image acquired and not released");
+    if (gl_work_pending(&sc->session->gl))
+        hazard(sc->session, func,
+               "destroys a swapchain while the app's GL work may still write into its images (no "
+               "glFinish since the last draw)");
+}
+
+void rt_strict_session(rt_session *s, const char *func) {
+    if (!s->instance->cfg.strict_teardown || s->lost) return;
+    if (s->frame_begun) hazard(s, func, "destroys a session with a frame begun and not ended");
+    if (s->running)
+        hazard(s, func,
+               "destroys a running session (not ended with xrEndSession: request exit, wait for "
+               "STOPPING, end it)");
+}
+
+void rt_swapchain_free(rt_swapchain *sc, const char *func) {
+    rt_strict_swapchain(sc, func);
     rt_gl *gl = &sc->session->gl;
     if (!rt_gl_begin(gl)) {
         gl->DeleteTextures(RT_IMAGES_PER_SWAPCHAIN, sc->images);
@@ -180,7 +224,7 @@ void rt_swapchain_free(rt_swapchain *sc) {
 static XrResult XRAPI_CALL rt_DestroySwapchain(XrSwapchain swapchain) {
     RT_LOCKED;
     GET_SWAPCHAIN(sc, swapchain, "xrDestroySwapchain");
-    rt_swapchain_free(sc);
+    rt_swapchain_free(sc, "xrDestroySwapchain");
     return XR_SUCCESS;
 }
 

@@ -63,9 +63,10 @@ import gpu
 import numpy as np
 
 from ...core.errors import BTFMaterialsError
+from ...core.mat4 import inverse
 from ...gl.device import DEFAULT_STATE, DrawState
 from ...gl.drawer import ProgressiveDrawer
-from ...gl.eye import HeadsetEye, HeadsetSettings
+from ...gl.eye import HeadsetEye, HeadsetSettings, SharedBudget
 from ...render.frame_budget import DEFAULT_BUDGET_S
 from ...render.stereo import SKEW_TOLERANCE, EyeId, EyeIdentifier
 from ..export import ExportCache, changed_ids, export_scene
@@ -146,6 +147,7 @@ class XRPreview:
         self.cache = ExportCache()
         self.scene_dirty = True
         self.eyes: dict[str, HeadsetEye] = {}
+        self.shared: SharedBudget | None = None  # the eyes' one budget (not the mirror's)
         self.gaze: Gaze | None = None  # the BTF material straight ahead, and from where
         self.ray_casts = 0  # gaze ray casts made (tests, the benchmark)
         self.mirror_s = 0.0  # seconds spent in mirror draws: kept out of the eyes' clock
@@ -171,6 +173,7 @@ class XRPreview:
         for eye in self.eyes.values():
             eye.release()
         self.eyes.clear()
+        self.shared = None
         self.gaze = None
         if self.display is not None:
             self.display.release()
@@ -218,7 +221,12 @@ class XRPreview:
         eye = self.eyes.get(key)
         if eye is None:
             clock = self.clock if mirror else self.eye_clock
-            eye = self.eyes[key] = HeadsetEye(self.device, budget_s, clock)
+            shared = None
+            if not mirror:  # both eyes: one budget decision per frame (gl/eye.py SharedBudget)
+                if self.shared is None:
+                    self.shared = SharedBudget(budget_s, clock)
+                shared = self.shared
+            eye = self.eyes[key] = HeadsetEye(self.device, budget_s, clock, shared=shared)
         k = eye.lights_this_frame(
             MIRROR_LIGHTS_PER_FRAME if mirror else vr.lights_per_frame, budget_s
         )
@@ -231,7 +239,7 @@ class XRPreview:
             drawer, size, settings, clip_from_view, view_from_world, k, not vr.show_world
         )
         if restarted and vr.show_hud:
-            self._update_gaze(depsgraph, drawer.serial, np.linalg.inv(view_from_world), viewer)
+            self._update_gaze(depsgraph, drawer.serial, inverse(view_from_world), viewer)
         view = eye.view
 
         # Making GPU objects (the first frame's offscreens, textures) may leave another
