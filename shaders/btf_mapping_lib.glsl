@@ -2,11 +2,11 @@
  * mapped_evaluate; kernels/include/btf_surface.h map_point and btf_mapped do the same).
  * Needs the sampler material_blocks (MATERIAL_BLOCK_FLOATS floats per mesh, slots M_* from
  * btf_addon/core/codecs/packed.py, laid out TABLE_WIDTH floats a row as the BTF tables are) and the
- * push constant material_block (x = this mesh's block index). */
+ * varying v_block (this fragment's mesh's block index, the same at its triangle's corners). */
 
 float mblock(int i)
 {
-  int k = int(material_block.x + 0.5) * MATERIAL_BLOCK_FLOATS + i;
+  int k = int(v_block + 0.5) * MATERIAL_BLOCK_FLOATS + i;
   return texelFetch(material_blocks, ivec2(k % TABLE_WIDTH, k / TABLE_WIDTH), 0).r;
 }
 

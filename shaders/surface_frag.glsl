@@ -4,8 +4,8 @@
  * lights: 2 texels per light, (direction.xyz, 0) then (radiance / pdf).rgb, 0), world space.
  * camera: xyz = camera position, w = 1 (perspective); or xyz = direction towards the camera,
  *         w = 0 (orthographic).
- * material_block: x = this mesh's row of material_blocks, its material's mapping, texel
- *                 filter and exposure (shaders/btf_mapping_lib.glsl).
+ * v_block: this fragment's mesh's row of material_blocks, its material's mapping, texel
+ *          filter and exposure (shaders/btf_mapping_lib.glsl).
  * light_range: x = first light, y = how many, z = unused (the exposure multiplier is the
  *              block's M_EXPOSURE, as the OpenCL kernels read it), w = how many Blender
  *              lights scene_lights holds (shaders/scene_lights_lib.glsl). Each batch adds them

@@ -5,5 +5,6 @@ void main()
   v_normal = nor;
   v_uv = uv;
   v_tangent = tan;
+  v_block = blk;
   gl_Position = clip_from_world * vec4(pos, 1.0);
 }

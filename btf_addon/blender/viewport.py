@@ -12,6 +12,7 @@ import numpy as np
 from gpu_extras.presets import draw_texture_2d
 
 from ..core.errors import BTFMaterialsError
+from ..core.mat4 import inverse
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..render.lighting import frame_lights
 from .export import ExportCache, changed_ids, export_scene
@@ -74,7 +75,7 @@ def view_draw(engine, context, depsgraph) -> None:
         state.view_key = None  # new scene: new lights, restart below
     drawer = state.drawer
     clip_from_world = np.array(rv3d.perspective_matrix, dtype=np.float64)
-    world_from_view = np.linalg.inv(np.array(rv3d.view_matrix, dtype=np.float64))
+    world_from_view = inverse(np.array(rv3d.view_matrix, dtype=np.float64))
     if rv3d.is_perspective:
         camera = [*world_from_view[:3, 3], 1.0]
     else:

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..core.codecs.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
 from ..core.codecs.packed import layout_stream, pack
+from ..core.mat4 import inverse
 from ..core.sampling.envmap import VirtualLights
 from ..render.pixel_filter import PixelFilter, subpixel_offset
 from ..render.progressive import ProgressiveState
@@ -121,6 +122,11 @@ class ViewAccumulation:
         self.background = self.accumulation = self.output = self.lights = self.scratch = None
 
 
+def _mesh_key(mesh: Mesh) -> tuple:
+    """A mesh's upload as it is: the same object-space arrays at the same world matrix."""
+    return (id(mesh.positions), np.asarray(mesh.world_from_object).tobytes())
+
+
 class ProgressiveDrawer:
     """GPU resources of one scene, drawn into views through ``device``.
 
@@ -145,9 +151,13 @@ class ProgressiveDrawer:
         self.resolve_program = device.program(RESOLVE_SHADER)
         old_tables = previous._table_uploads if previous else {}
         old_batches = previous._batch_uploads if previous else {}
+        old_corners = previous._corners if previous else {}
         # Keyed by id() of the source, with the source kept alive so an id cannot be reused.
         self._table_uploads: dict[int, tuple[object, tuple[Any, Any]]] = {}
         self._batch_uploads: dict[tuple, tuple[object, Any]] = {}
+        #: Each mesh's world-space corners (the CPU half of an upload), by the same key as its
+        #: arrays: a batch re-uploaded because another of its meshes changed reuses them.
+        self._corners: dict[tuple, tuple[object, np.ndarray]] = {}
         self.tables: list[tuple[Any, Any]] = []  # per material: (int table, float table)
         for material in scene.materials:
             key = id(material.btf)
@@ -157,19 +167,35 @@ class ProgressiveDrawer:
                     self._upload_tables(material.btf),
                 )
             self.tables.append(self._table_uploads[key][1])
-        self.batches: list[tuple[Any, int]] = []  # (vertices, material index), empty meshes out
-        self.batch_blocks: list[int] = []  # per batch: its mesh's row of the material blocks
+        # One batch per material, its meshes' triangles in one vertex buffer, each vertex with
+        # its mesh's row of the material blocks (``blk``): a draw per material instead of per
+        # mesh, so a scene of many objects costs a few draws per pass (Blender's VR session
+        # draws every eye with them). A batch is kept while none of its meshes changed.
+        self.batches: list[tuple[Any, int]] = []  # (vertices, material index), empty ones out
+        groups: dict[int, list[int]] = {}
         for mesh_index, mesh in enumerate(scene.meshes):
-            key = (id(mesh.positions), np.asarray(mesh.world_from_object).tobytes())
+            groups.setdefault(mesh.material, []).append(mesh_index)
+        for material_index, members in groups.items():
+            meshes = [scene.meshes[i] for i in members]
+            keys = [_mesh_key(m) for m in meshes]
+            key = (material_index, *zip(members, keys, strict=True))
             if key not in self._batch_uploads:
                 self._batch_uploads[key] = old_batches.get(key) or (
-                    mesh.positions,
-                    self._upload_mesh(mesh),
+                    [m.positions for m in meshes],
+                    self._upload_batch(members, meshes, keys, old_corners),
+                )
+            for k, m in zip(keys, meshes, strict=True):  # kept for the next drawer's batches
+                self._corners[k] = (
+                    self._corners.get(k)
+                    or old_corners.get(k)
+                    or (
+                        m.positions,
+                        m.world_space_corners(),
+                    )
                 )
             vertices = self._batch_uploads[key][1]
             if vertices is not None:
-                self.batches.append((vertices, mesh.material))
-                self.batch_blocks.append(mesh_index)
+                self.batches.append((vertices, material_index))
         env = scene.environment
         if previous is not None and previous.scene.environment is env:
             self.env_tex = previous.env_tex
@@ -212,12 +238,22 @@ class ProgressiveDrawer:
         packed = pack(btf)
         return self.device.texture(packed.ints), self.device.texture(packed.floats)
 
-    def _upload_mesh(self, mesh: Mesh) -> Any:
-        data = mesh.world_space_corners()  # (3 × triangles, 12) float32, world space
+    def _upload_batch(self, members: list[int], meshes: list[Mesh], keys: list[tuple], old):
+        """One vertex buffer of ``meshes`` (world space), each vertex with its mesh's block row
+        (``members``: the meshes' indices, rows of the material blocks); None when empty."""
+        parts, rows = [], []
+        for index, mesh, key in zip(members, meshes, keys, strict=True):
+            cached = self._corners.get(key) or old.get(key)
+            data = cached[1] if cached else mesh.world_space_corners()  # (3 × tris, 12)
+            self._corners[key] = (mesh.positions, data)
+            parts.append(data)
+            rows.append(np.full(len(data), index, dtype=np.float32))
+        data = np.concatenate(parts) if parts else np.zeros((0, 12), np.float32)
         if len(data) == 0:
             return None
         attributes = {"pos": data[:, 0:3], "nor": data[:, 3:6], "uv": data[:, 6:8]}
         attributes["tan"] = data[:, 8:12]
+        attributes["blk"] = np.concatenate(rows)
         return self.device.vertices(self.surface, attributes)
 
     def _owned(self) -> list[Any]:
@@ -238,6 +274,7 @@ class ProgressiveDrawer:
 
     def _forget(self) -> None:
         self._table_uploads, self._batch_uploads, self.tables, self.batches = {}, {}, [], []
+        self._corners = {}
         self.released = True
 
     # --- drawing ---------------------------------------------------------------------------
@@ -257,7 +294,7 @@ class ProgressiveDrawer:
                 self.background_program,
                 self.quad_background,
                 {
-                    "world_from_clip": np.linalg.inv(view.clip_from_world),
+                    "world_from_clip": inverse(view.clip_from_world),
                     "viewport_size": view.size,
                     "env_params": (env.rotation_z_rad, 1.0),
                 },
@@ -310,7 +347,7 @@ class ProgressiveDrawer:
                     self.background_program,
                     self.quad_background,
                     {
-                        "world_from_clip": np.linalg.inv(jittered),
+                        "world_from_clip": inverse(jittered),
                         "viewport_size": view.size,
                         "env_params": (env.rotation_z_rad, float(count)),
                     },
@@ -397,14 +434,13 @@ class ProgressiveDrawer:
         lights = view.lights if view.lights is not None else self.no_lights
         device.set_state(state)
         try:
-            batches = zip(self.batches, self.batch_blocks, strict=True)
-            for (vertices, material_index), block in batches:
+            light_range = (first, count, 0.0, len(self.scene.lights))
+            for vertices, material_index in self.batches:
                 ints, floats = self.tables[material_index]
                 uniforms = {
                     "clip_from_world": clip_from_world,
                     "camera": view.camera,
-                    "material_block": (block, 0.0, 0.0, 0.0),  # row in material_blocks
-                    "light_range": (first, count, 0.0, len(self.scene.lights)),
+                    "light_range": light_range,
                 }
                 samplers = {
                     "btf_int_tables": ints,

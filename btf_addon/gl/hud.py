@@ -39,17 +39,24 @@ class HudDrawer:
         self.image_size: tuple[int, int] | None = None  # (w, h) of the current image
         self.uploads = 0
         self._digest: bytes | None = None
+        self._source: np.ndarray | None = None  # the array last given (see set_image)
 
     def set_image(self, image: np.ndarray) -> None:
         """``image``: ``(h, w, 4)`` float32, premultiplied alpha, row 0 at the bottom (as
         render/hud.py ``raster_text`` makes it). Uploaded only if its pixels (or shape)
-        differ from the current image's."""
+        differ from the current image's; the very array of the last call (an eye draws its
+        HUD image again every frame until the text changes) is not even hashed: images are
+        made anew, never changed in place (render/hud.py)."""
+        if image is self._source:
+            return
+        source = image
         image = np.ascontiguousarray(image, dtype=np.float32)
         if image.ndim != 3 or image.shape[2] != 4 or image.shape[0] < 1 or image.shape[1] < 1:
             raise ValueError(f"HUD image must be (h, w, 4), got {image.shape}")
         digest = hashlib.blake2b(image.tobytes(), digest_size=16)
         digest.update(repr(image.shape).encode())
         if digest.digest() == self._digest:
+            self._source = source
             return
         # linear: the quad is rarely pixel-aligned with the eye's image; premultiplied texels
         # filter without dark fringes. Blender's adapter keeps its default sampler (it may
@@ -57,7 +64,7 @@ class HudDrawer:
         # clamping and repeating filter the same values there.
         texture = self.device.texture(image, linear=True)
         self.device.release(self.texture)
-        self.texture, self._digest = texture, digest.digest()
+        self.texture, self._digest, self._source = texture, digest.digest(), source
         self.image_size = (image.shape[1], image.shape[0])
         self.uploads += 1
 

@@ -157,7 +157,14 @@ QUERY_SHADER = ShaderInterface(
 
 SURFACE_SHADER = ShaderInterface(
     name="btf_surface",
-    vertex_inputs=((0, "VEC3", "pos"), (1, "VEC3", "nor"), (2, "VEC2", "uv"), (3, "VEC4", "tan")),
+    # blk: the vertex's mesh's row of the material blocks (one batch holds a material's meshes).
+    vertex_inputs=(
+        (0, "VEC3", "pos"),
+        (1, "VEC3", "nor"),
+        (2, "VEC2", "uv"),
+        (3, "VEC4", "tan"),
+        (4, "FLOAT", "blk"),
+    ),
     fragment_outputs=((0, "VEC4", "frag_color"),),
     samplers=(
         (0, "FLOAT_2D", "btf_int_tables"),
@@ -166,13 +173,15 @@ SURFACE_SHADER = ShaderInterface(
         (3, "FLOAT_2D", "scene_lights"),
         (4, "FLOAT_2D", "material_blocks"),
     ),
-    push_constants=(
-        ("MAT4", "clip_from_world"),
-        ("VEC4", "camera"),
-        ("VEC4", "material_block"),
-        ("VEC4", "light_range"),
+    push_constants=(("MAT4", "clip_from_world"), ("VEC4", "camera"), ("VEC4", "light_range")),
+    # v_block: equal at a triangle's three corners, so interpolation keeps it (read rounded).
+    varyings=(
+        ("VEC3", "v_world"),
+        ("VEC3", "v_normal"),
+        ("VEC2", "v_uv"),
+        ("VEC4", "v_tangent"),
+        ("FLOAT", "v_block"),
     ),
-    varyings=(("VEC3", "v_world"), ("VEC3", "v_normal"), ("VEC2", "v_uv"), ("VEC4", "v_tangent")),
     libraries=(*BTF_LIBRARIES, "btf_mapping_lib.glsl", "scene_lights_lib.glsl"),
     vertex_file="surface_vert.glsl",
     fragment_file="surface_frag.glsl",

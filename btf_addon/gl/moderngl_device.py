@@ -108,6 +108,7 @@ class ModernGLDevice:
     def vertices(self, program: _Program, attributes: Mapping[str, np.ndarray]) -> _Vertices:
         names = [name for _, _, name in program.interface.vertex_inputs]
         columns = [np.asarray(attributes[n], dtype=np.float32) for n in names]
+        columns = [c[:, None] if c.ndim == 1 else c for c in columns]  # a float per vertex
         data = np.ascontiguousarray(np.hstack(columns))  # interleaved, in location order
         layout = " ".join(f"{c.shape[1]}f" for c in columns)
         self._activate()

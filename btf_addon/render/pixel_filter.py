@@ -24,6 +24,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -154,8 +155,12 @@ def subpixel_offsets(pixel_filter: PixelFilter | None, count: int) -> np.ndarray
     return pixel_filter.sample(r2_points(count)).astype(np.float32)
 
 
+@lru_cache(maxsize=4096)
 def subpixel_offset(pixel_filter: PixelFilter | None, index: int) -> tuple[float, float]:
-    """Offset ``index`` of ``subpixel_offsets`` alone (the viewport's jitter of one pass)."""
+    """Offset ``index`` of ``subpixel_offsets`` alone (the viewport's jitter of one pass).
+    Remembered: every pass of every view (each VR eye, every frame) asks for one, and the
+    inversion by bisection costs a quarter of a millisecond, more than the rest of a pass's
+    host work."""
     if pixel_filter is None:
         return (0.0, 0.0)
     dx, dy = pixel_filter.sample(r2_at([index]))[0]

@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.mat4 import inverse
+
 MONO_TOLERANCE = 1e-6  # relative to the eye's distance from the origin (float32 positions)
 SKEW_TOLERANCE = 1e-6
 SAME_EYE_M = 0.01  # two positions this close are one eye (eyes are ~0.064 m apart)
@@ -51,7 +53,7 @@ class EyeIdentifier:
         clip_from_view: np.ndarray,
         viewer_location: np.ndarray | None = None,
     ) -> EyeId:
-        world_from_view = np.linalg.inv(np.asarray(view_from_world, dtype=np.float64))
+        world_from_view = inverse(view_from_world)
         eye, right = world_from_view[:3, 3], world_from_view[:3, 0]
         right = right / np.linalg.norm(right)
         if viewer_location is not None:

@@ -176,9 +176,7 @@ def test_material_panel_warns_while_its_source_is_missing(bpy_module, fresh_scen
     (tmp_path / "gone.btfm").write_bytes(b"not a container")  # there, but cannot load
     errors = extension_submodule("btf_addon.core.errors")
     with pytest.raises(errors.BTFError):
-        extension_submodule("btf_addon.blender.export.materials").load_cached(
-            material.btf.source
-        )
+        extension_submodule("btf_addon.blender.export.materials").load_cached(material.btf.source)
     labels = draw(btf_panel, context).labels
     assert any("gone.btfm" in t for t in labels), labels
     material.btf.enabled = False

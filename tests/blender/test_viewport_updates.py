@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from blender_helpers import extension_submodule, init_gpu_module
+from blender_helpers import extension_submodule, init_gpu_module, with_nodes
 
 
 def two_objects(bpy):
@@ -31,6 +31,9 @@ def test_only_changed_objects_are_exported_and_uploaded(bpy_module, fresh_scene)
     gpu_draw = extension_submodule("btf_addon.blender.gpu_draw")
     init_gpu_module(bpy)
     a, _b = two_objects(bpy)
+    # The drawer batches a material's meshes: A has a material of its own, so its batch holds
+    # A alone and B's batch can be kept when A changes.
+    a.data.materials.append(with_nodes(bpy.data.materials.new("Red")))
     cache = export.ExportCache()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     first = export.export_scene(depsgraph, 32, 32, cache)

@@ -230,3 +230,61 @@ def test_exposure_scales_each_material_by_its_own_block(gl_ctx, rng):
     assert changed.sum() > 100  # the sphere
     np.testing.assert_array_equal(brighter[changed], 2.0 * base[changed])
     assert (~changed).sum() > 100 and base[~changed].max() > 0  # the ground kept its look
+
+
+def test_meshes_of_one_material_are_drawn_in_one_draw(gl_ctx, rng):
+    """A pass draws once per material, not once per mesh (Blender's VR session draws every eye
+    of a scene of many objects): twelve spheres on two materials are two draws a pass, and the
+    image equals the same scene drawn one mesh per material (twelve materials: twelve draws),
+    each mesh reading its own block (exposure) from its vertices."""
+    from btf_addon.gl.drawer import ProgressiveDrawer, ViewAccumulation
+    from btf_addon.gl.moderngl_device import ModernGLDevice
+
+    spheres = []
+    for i in range(12):
+        mesh = uv_sphere(0.3, segments=12, rings=6, material=i % 2)
+        mesh.world_from_object = np.eye(4)
+        mesh.world_from_object[:3, 3] = ((i % 4) - 1.5, 0.0, (i // 4) - 1.0)
+        spheres.append(mesh)
+    shared = [Material(GGXBTF((0.9, 0.6, 0.3), 0.4)), Material(LambertianBTF(0.5), exposure=0.5)]
+    batched = Scene(
+        spheres,
+        shared,
+        Camera(look_at((0.0, -5.0, 0.0), (0.0, 0.0, 0.0))),
+        Environment(rng.gamma(0.7, 1.0, size=(16, 32, 3))),
+    )
+    # The same materials, one per mesh (the same BTF objects: equal tables).
+    apart = replace(
+        batched,
+        meshes=[replace(m, material=i) for i, m in enumerate(spheres)],
+        materials=[shared[i % 2] for i in range(12)],
+    )
+    lights = batched.environment.virtual_lights(8, seed=5)
+    device = ModernGLDevice(gl_ctx)
+    draws = []
+    original = device.draw
+
+    def counting(*args):
+        draws.append(1)
+        return original(*args)
+
+    device.draw = counting
+    view = ViewAccumulation(device, W, H)
+    images, counts = [], []
+    try:
+        for scene in (batched, apart):
+            drawer = ProgressiveDrawer(device, scene)
+            view.set_lights(lights, per_pass=8)
+            restart(drawer, view, scene.camera)
+            draws.clear()
+            drawer.add_batch(view)
+            counts.append(len(draws))
+            images.append(image(drawer, view))
+            drawer.release()
+    finally:
+        view.release()
+    assert counts == [2, 12]
+    assert images[0].max() > 0
+    # The same triangles and blocks in another order within a draw: equal up to the order
+    # of the (associative only in exact arithmetic) per-light sums, which is the same per pixel.
+    np.testing.assert_allclose(images[0], images[1], rtol=1e-6, atol=1e-7)
