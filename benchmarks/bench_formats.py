@@ -10,6 +10,7 @@ are for random queries with programs already built; OpenCL and GLSL include tran
 from __future__ import annotations
 
 import dataclasses
+import os
 import tempfile
 import time
 import tracemalloc
@@ -153,6 +154,82 @@ def rank_table(alu_dense) -> str:
     )
 
 
+def _load_seconds(path: Path) -> float:
+    """One ``load_btf`` in CPU seconds of this process (the machine is shared: other work
+    must not count); the caller takes the best of runs interleaved with the other version's."""
+    t0 = time.process_time()
+    load_btf(path)
+    return time.process_time() - t0
+
+
+def _mlvq_encoding(tmp: Path) -> MLVQBTF | None:
+    """Our MLVQ encoding of alu at default settings: the file in $BTF_BENCH_ALU_MLVQ (written
+    by ``python -m btf_addon compress``) or, when $BTF_BENCH_ENCODE=1, encoded here (minutes)."""
+    given = os.environ.get("BTF_BENCH_ALU_MLVQ")
+    if given and Path(given).is_file():
+        return load_btf(given)
+    if os.environ.get("BTF_BENCH_ENCODE") != "1":
+        return None
+    from btf_addon.core.encoders.mlvq import MLVQSettings, encode_mlvq
+
+    encoded, _ = encode_mlvq(MLVQBTF.from_directory(SHARED_BTFBASE / "alu"), MLVQSettings())
+    return encoded
+
+
+def container_table(tmp: Path, alu_dense) -> str:
+    """.btfm version 1 (raw arrays, the writer before issue 31) against version 2 (compact):
+    bytes on disk against the material's binary.btf, and load time (``load_btf``, CPU time,
+    best of interleaved runs, so both versions meet the same machine load)."""
+    sources: list[tuple[str, object, int | None]] = []
+    for name in ("alu", "wallpaper"):
+        folder = SHARED_BTFBASE / name
+        if folder.is_dir():
+            binary = (folder / "binary.btf").stat().st_size
+            sources.append((f"{name} (text tables)", load_btf(folder), binary))
+            sources.append(
+                (f"{name} (binary.btf, restored)", load_btf(folder, prefer_binary=True), binary)
+            )
+    encoded = _mlvq_encoding(tmp)
+    if encoded is not None:
+        sources.append(("alu, our MLVQ encoding (defaults)", encoded, None))
+    sources.append(("alu 32² dense (float32)", alu_dense, None))
+    rows = []
+    for label, btf, binary in sources:
+        v1 = write_container(tmp / "v1.btfm", btf, compact=False)
+        t0 = time.perf_counter()
+        v2 = write_container(tmp / "v2.btfm", btf)
+        write_s = time.perf_counter() - t0
+        repeat = 300 if v1.stat().st_size < 1 << 20 else 30 if v1.stat().st_size < 1 << 24 else 5
+        t1, t2 = np.inf, np.inf
+        for _ in range(repeat):
+            t1, t2 = min(t1, _load_seconds(v1)), min(t2, _load_seconds(v2))
+        rows.append(
+            [
+                label,
+                f"{v1.stat().st_size:,}",
+                f"{v2.stat().st_size:,}",
+                "-" if binary is None else f"{binary:,}",
+                f"{t1 * 1e3:.2f}",
+                f"{t2 * 1e3:.2f}",
+                f"{t2 / t1:.2f}",
+                f"{write_s:.2f}",
+            ]
+        )
+    return table(
+        [
+            "material",
+            "v1 bytes",
+            "v2 bytes",
+            "binary.btf bytes",
+            "v1 load ms",
+            "v2 load ms",
+            "v2/v1 load",
+            "v2 write s",
+        ],
+        rows,
+    )
+
+
 def main() -> str:
     folder = SHARED_BTFBASE / "alu"
     if not folder.is_dir():
@@ -161,6 +238,7 @@ def main() -> str:
     alu_dense = tabulate(alu, UBO2003, UBO2003, width=32, height=32)
     with tempfile.TemporaryDirectory() as tmp:
         parts = [
+            "### .btfm version 1 vs 2 (issue 31)\n" + container_table(Path(tmp), alu_dense),
             "### Load time and memory\n" + load_table(Path(tmp), alu_dense),
             "### svd decode throughput against MLVQ\n" + throughput_table(alu),
             "### Rank vs error vs time (alu, 32² texels, UBO2003 81 × 81)\n"
@@ -170,4 +248,11 @@ def main() -> str:
 
 
 if __name__ == "__main__":
-    print(main())
+    import sys
+
+    if sys.argv[1:] == ["container"]:  # only the version 1 vs 2 table
+        alu = MLVQBTF.from_directory(SHARED_BTFBASE / "alu")
+        with tempfile.TemporaryDirectory() as tmp:
+            print(container_table(Path(tmp), tabulate(alu, UBO2003, UBO2003, width=32, height=32)))
+    else:
+        print(main())

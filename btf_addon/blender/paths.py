@@ -117,12 +117,12 @@ class MissingSource(NamedTuple):
     reason: str
 
 
-def source_problem(source: str) -> str:
+def source_problem(source: str, prefer_binary: bool = False) -> str:
     """Why ``source`` cannot be rendered, or '' when it loads."""
     if not source:
         return "BTF enabled but no source set"
     try:
-        load_cached(source)  # cached: free when F12's export has just loaded it
+        load_cached(source, prefer_binary)  # cached: free when F12's export has just loaded it
     except (BTFError, OSError, ValueError) as exc:
         return str(exc)
     return ""
@@ -137,7 +137,7 @@ def missing_sources(exported) -> list[MissingSource]:
         settings = getattr(material, "btf", None)
         if settings is None or not settings.enabled:
             continue
-        problem = source_problem(settings.source)
+        problem = source_problem(settings.source, settings.prefer_binary)
         if problem:
             missing.append(MissingSource(material.name, settings.source, problem))
     return missing
@@ -277,7 +277,7 @@ class BTF_OT_report_missing(Operator):
         for material in btf_materials():
             if not material.btf.enabled:
                 continue
-            problem = source_problem(material.btf.source)
+            problem = source_problem(material.btf.source, material.btf.prefer_binary)
             if problem:
                 missing += 1
                 self.report({"WARNING"}, f"material {material.name!r}: {problem}")

@@ -81,6 +81,14 @@ class BTFMaterialSettings(PropertyGroup):
         subtype="ANGLE",
         description="Rotation of the BTF in UV space",
     )
+    prefer_binary: BoolProperty(
+        update=_tag_material,
+        name="Use binary.btf",
+        default=False,
+        description="Read a BTFbase folder from its binary.btf alone instead of table by table "
+        "from its text files (which are exact; binary.btf stores some maxima wrapped to 0, "
+        "restored where the values allow it)",
+    )
     exposure: FloatProperty(
         update=_tag_material,
         name="Exposure",

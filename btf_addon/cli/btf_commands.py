@@ -14,9 +14,9 @@ from ..core.codecs.dense import tabulate
 from ..core.codecs.presets import PRESETS, make_preset, preset_parameters
 from ..core.errors import BTFError
 from ..core.fileio import atomic_write, check_output
-from ..core.formats.container import SUFFIX, write_container
+from ..core.formats.container import SUFFIX, container_version, write_container
 from ..core.formats.imageio import srgb8_from_linear, write_exr, write_png
-from ..core.formats.load import bytes_on_disk, load_btf
+from ..core.formats.load import bytes_on_disk, load_btf, load_warnings
 from ..core.grid import UBO2003, uniform_ring_grid
 
 
@@ -30,6 +30,17 @@ def add_device_argument(parser) -> None:
     )
 
 
+def add_prefer_binary_argument(parser) -> None:
+    """``--prefer-binary``: a BTFbase folder is read from its binary.btf alone."""
+    parser.add_argument(
+        "--prefer-binary",
+        action="store_true",
+        help="BTFbase folders: read binary.btf (8-bit, wrapped maxima restored where "
+        "possible) instead of the text tables; by default each table comes from its text "
+        "file and binary.btf fills only the missing or damaged ones",
+    )
+
+
 def add_parsers(sub) -> None:
     p = sub.add_parser("info", help="describe a BTF (JSON)")
     p.add_argument(
@@ -37,6 +48,7 @@ def add_parsers(sub) -> None:
         help="BTFbase material folder or binary.btf, UBO2014 .btf, UBO2003/ATRIUM image set "
         "(zip or folder), or .btfm container",
     )
+    add_prefer_binary_argument(p)
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("eval", help="evaluate a BTF at queries from a .npy file")
@@ -105,6 +117,7 @@ def add_parsers(sub) -> None:
         help="store as the svd codec with N components per channel (dense sources; "
         "prints the truncation error); implied (16) for a .btf output",
     )
+    add_prefer_binary_argument(p)
     p.set_defaults(func=cmd_convert)
 
 
@@ -112,13 +125,15 @@ def _container_format(path: Path, btf) -> str:
     form = btf.meta.extra.get("btfbase_form")
     if form:  # a BTFbase folder or binary.btf: which form was read
         return f"btfbase-mlvq-{form}"
-    return btf.meta.extra.get("file_format", "btfm-container-v1")
+    if "file_format" in btf.meta.extra:
+        return btf.meta.extra["file_format"]
+    return f"btfm-container-v{container_version(path)}"  # 1: raw arrays, 2: compact
 
 
 def cmd_info(args) -> int:
     path = Path(args.path)
     memory.require(memory.btf_load(path))
-    btf = load_btf(path)
+    btf = load_btf(path, prefer_binary=args.prefer_binary)
     meta = btf.meta
     on_disk = bytes_on_disk(path, btf)
     info = {
@@ -141,6 +156,13 @@ def cmd_info(args) -> int:
     }
     if "text_tables_error" in meta.extra:
         info["text_tables_error"] = meta.extra["text_tables_error"]
+    tables = meta.extra.get("btfbase_tables", {})
+    if "binary" in tables.values():  # which tables binary.btf gave, and what it restored
+        info["tables_from_binary"] = [k for k, v in tables.items() if v == "binary"]
+        info["binary_recovery"] = meta.extra.get("btfbase_recovery", {})
+    if load_warnings(btf):
+        info["warnings"] = load_warnings(btf)
+
     report = path / "quantreport.txt" if path.is_dir() else None
     if report and report.is_file():
         m = re.search(r"compressed quantized = (\d+)\s+ratio = ([\d.]+)", report.read_text())
@@ -398,7 +420,9 @@ def cmd_convert(args) -> int:
     if src.exists() and is_image_set(src) and not (src / "all_materialInfo.txt").exists():
         btf = load_image_set(src, texels=args.texels)
     else:
-        btf = load_btf(src)
+        btf = load_btf(src, prefer_binary=args.prefer_binary)
+    for warning in load_warnings(btf):  # damaged text, approximate values: said, not hidden
+        print(f"warning: {warning}", file=sys.stderr)
     to_btf = args.dst.suffix.lower() == ".btf"
     rank = args.rank if args.rank is not None else (16 if to_btf else None)
     if rank is not None and btf.meta.codec != "svd":

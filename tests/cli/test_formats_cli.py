@@ -6,6 +6,7 @@ import json
 import shutil
 
 import numpy as np
+import pytest
 from helpers import run_cli, shared_material
 
 from btf_addon.core.codecs.dense import tabulate
@@ -48,3 +49,53 @@ def test_convert_dense_to_ubo2014_btf_and_back_to_btfm(tmp_path, rng):
     want = load_btf(tmp_path / "d.btf").evaluate_angles(q.astype(np.float32))
     np.testing.assert_allclose(got, want, atol=1e-6)
     assert np.abs(got - dense.evaluate_angles(q.astype(np.float32))).max() < 0.2 * want.max()
+
+
+def _linked(src, dst, *edited):
+    """``src`` as links, the ``edited`` files as writable copies."""
+    dst.mkdir()
+    for f in src.iterdir():
+        if f.name in edited:
+            shutil.copy(f, dst / f.name)
+            (dst / f.name).chmod(0o644)
+        else:
+            (dst / f.name).symlink_to(f)
+    return dst
+
+
+def test_info_names_a_damaged_table_and_the_binary_form_on_request(tmp_path):
+    """Issue 31: a damaged text table is read from binary.btf and named (text_tables_error,
+    warnings); --prefer-binary reads binary.btf alone; convert prints the warnings."""
+    folder = _linked(shared_material("alu"), tmp_path / "alu", "all_PDF3Dscale.txt")
+    (folder / "all_PDF3Dscale.txt").write_text("539 7 0 1\n1 2 3\n")
+    out = json.loads(run_cli("info", folder).stdout)
+    assert out["format"] == "btfbase-mlvq-text+binary"
+    assert "all_PDF3Dscale.txt" in out["text_tables_error"]
+    assert out["tables_from_binary"] == ["pdf3_scale"]
+    assert any("all_PDF3Dscale.txt" in w for w in out["warnings"])
+    proc = run_cli("convert", folder, tmp_path / "a.btfm")
+    assert "warning:" in proc.stderr and "all_PDF3Dscale.txt" in proc.stderr
+
+    out = json.loads(run_cli("info", shared_material("alu"), "--prefer-binary").stdout)
+    assert out["format"] == "btfbase-mlvq-binary" and out["bytes_on_disk"] == 80_905
+    assert out["binary_recovery"]["pdf1"]["ambiguous"] == 0
+    run_cli("convert", shared_material("alu"), tmp_path / "b.btfm", "--prefer-binary")
+    restored = load_btf(tmp_path / "b.btfm").tables()["pdf2_scale"].max()  # the wrap restored
+    text = load_btf(shared_material("alu")).tables()["pdf2_scale"].max()
+    assert restored == pytest.approx(text, rel=1e-6)  # f32 max vs its six printed decimals
+
+
+def test_a_converted_material_is_no_bigger_than_its_binary_btf(tmp_path, rng):
+    """Issue 31: the compact .btfm (version 2) of the text tables is smaller than the tool's
+    own 8-bit binary.btf, and decodes exactly as the text tables do."""
+    for name in ("alu", "wallpaper"):
+        src = shared_material(name)
+        dst = tmp_path / f"{name}.btfm"
+        run_cli("convert", src, dst)
+        assert dst.stat().st_size <= (src / "binary.btf").stat().st_size, name
+        out = json.loads(run_cli("info", dst).stdout)
+        assert out["format"] == "btfm-container-v2"
+        q = rng.random((300, 6)) * [1, 1, 90, 360, 90, 360]
+        np.testing.assert_array_equal(
+            load_btf(dst).evaluate_angles(q), load_btf(src).evaluate_angles(q)
+        )

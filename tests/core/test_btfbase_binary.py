@@ -19,8 +19,9 @@ FLOATS = ("pdf1", "ab_colors", "pdf2_scale", "pdf3_scale", "pdf4_scale", "pdf6_s
 
 
 def _both(material_dir: Path) -> tuple[MLVQBTF, MLVQBTF]:
+    """The text tables and binary.btf's bytes as written (no wrapped maximum restored)."""
     return MLVQBTF.from_directory(material_dir), btfbase_binary.load_binary(
-        material_dir / "binary.btf"
+        material_dir / "binary.btf", recover=False
     )
 
 
@@ -75,7 +76,7 @@ def test_a_folder_with_only_binary_btf_loads_it_and_says_so(tmp_path):
     assert load_btf(only / "binary.btf").meta.extra["btfbase_form"] == "binary"
 
 
-def test_a_complete_folder_prefers_the_text_and_incomplete_text_falls_back(tmp_path):
+def test_a_complete_folder_prefers_the_text_and_a_damaged_table_comes_from_binary(tmp_path):
     src = shared_material("alu")
     assert load_btf(src).meta.extra["btfbase_form"] == "text"
     folder = tmp_path / "alu"
@@ -83,7 +84,8 @@ def test_a_complete_folder_prefers_the_text_and_incomplete_text_falls_back(tmp_p
     (folder / "all_PDF3Dscale.txt").chmod(0o644)
     (folder / "all_PDF3Dscale.txt").write_text("539 7 0 1\n1 2 3\n")  # truncated
     btf = load_btf(folder)
-    assert btf.meta.extra["btfbase_form"] == "binary"
+    assert btf.meta.extra["btfbase_form"] == "text+binary"  # only that table (issue 31)
+    assert btf.meta.extra["btfbase_tables"]["pdf3_scale"] == "binary"
     assert "all_PDF3Dscale.txt" in btf.meta.extra["text_tables_error"]
 
 

@@ -10,7 +10,7 @@ from typing import NamedTuple
 import bpy
 
 from ...core.errors import BTFError
-from ...core.formats.load import load_btf
+from ...core.formats.load import load_btf, load_warnings
 from ...core.model import BTF
 from ...scene.scene import Material
 from .surface_shaders import analytic_btf
@@ -28,16 +28,18 @@ class BTFFileKey:
 
     path: str  # absolute, resolved
     mtime: float  # -1.0 when the path does not exist (loading it raises)
+    binary: bool = False  # a BTFbase folder read from its binary.btf alone (the user's choice)
 
 
 # Loading a BTF is costly (text tables, checksums): keep each by path and modification time.
 _btf_cache: dict[BTFFileKey, BTF] = {}
 
 
-def file_key(path: str) -> BTFFileKey:
+def file_key(path: str, prefer_binary: bool = False) -> BTFFileKey:
     """``path`` (Blender's "//" relative paths allowed) as it is on disk now."""
     resolved = Path(bpy.path.abspath(path)).resolve()
-    return BTFFileKey(str(resolved), resolved.stat().st_mtime if resolved.exists() else -1.0)
+    mtime = resolved.stat().st_mtime if resolved.exists() else -1.0
+    return BTFFileKey(str(resolved), mtime, prefer_binary)
 
 
 #: Why the last load of a source failed, by the same key: the material panel shows it without
@@ -45,18 +47,30 @@ def file_key(path: str) -> BTFFileKey:
 _load_failures: dict[BTFFileKey, str] = {}
 
 
-def load_cached(path: str) -> BTF:
-    """The BTF at ``path`` (Blender's "//" relative paths allowed), loaded once per version."""
-    key = file_key(path)
+def load_cached(path: str, prefer_binary: bool = False) -> BTF:
+    """The BTF at ``path`` (Blender's "//" relative paths allowed), loaded once per version.
+    ``prefer_binary``: a BTFbase folder from its ``binary.btf`` alone (the material's Use
+    binary.btf), not table by table from its text files."""
+    key = file_key(path, prefer_binary)
     resolved = Path(key.path)
     if key not in _btf_cache:
         try:
-            _btf_cache[key] = load_btf(resolved)
+            _btf_cache[key] = load_btf(resolved, prefer_binary=prefer_binary)
         except (BTFError, OSError, ValueError) as exc:
             _load_failures[key] = str(exc)
             raise
         _load_failures.pop(key, None)
     return _btf_cache[key]
+
+
+def load_notes(path: str, prefer_binary: bool = False) -> list[str]:
+    """What the last load of ``path`` warned about (a damaged text table read from
+    ``binary.btf``, values it could not restore), when it is loaded; [] otherwise. Loads
+    nothing: cheap enough for a panel's draw."""
+    if not path:
+        return []
+    btf = _btf_cache.get(file_key(path, prefer_binary))
+    return load_warnings(btf) if btf is not None else []
 
 
 def known_problem(path: str) -> str:
@@ -85,7 +99,9 @@ def export_material(material, messages: list[str]) -> ExportedMaterial:
             messages.append(f"material {material.name!r}: BTF enabled but no source set")
         else:
             try:
-                btf = load_cached(settings.source)
+                btf = load_cached(settings.source, settings.prefer_binary)
+                # Damaged text tables taken from binary.btf: said on every render, not hidden.
+                messages += [f"material {material.name!r}: {note}" for note in load_warnings(btf)]
                 render = Material(
                     btf,
                     uv_scale=settings.uv_scale,

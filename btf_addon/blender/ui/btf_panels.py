@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import os
+
 import bpy
 from bpy.types import Panel
 
 from ...render.settings import FinalMode, Lighting, RenderSettings
 from .. import versioning
 from ..addon import ENGINE_ID
-from ..export.materials import known_problem
+from ..export.materials import known_problem, load_notes
 
 
 class BTF_PT_material(Panel):
@@ -35,12 +37,21 @@ class BTF_PT_material(Panel):
         col = layout.column()
         col.active = settings.enabled
         col.prop(settings, "source")
+        if _is_folder(settings.source):  # a BTFbase folder: text tables or binary.btf
+            col.prop(settings, "prefer_binary")
         if settings.enabled:
-            # What F12 would report, before an F12: the path is gone, or its last load failed.
+            # What F12 would report, before an F12: the path is gone, or its last load failed
+            # or warned (a damaged text table read from binary.btf).
             problem = known_problem(settings.source)
             if problem:
                 layout.label(text=problem, icon="ERROR")
+            for note in load_notes(settings.source, settings.prefer_binary):
+                layout.label(text=note, icon="ERROR")
         col.prop(settings, "exposure")
+
+
+def _is_folder(source: str) -> bool:
+    return bool(source) and os.path.isdir(bpy.path.abspath(source))
 
 
 class BTF_PT_render_settings(Panel):

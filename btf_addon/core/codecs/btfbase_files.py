@@ -222,6 +222,27 @@ def check_index_range(table: np.ndarray, low: int, high: int, path: Path, target
         )
 
 
+def table_files(info: MaterialInfo) -> dict[str, tuple[str, bool, int | None]]:
+    """Each MLVQ table (``core.codecs.mlvq.TABLE_NAMES``) → its text file's name, whether it
+    holds indices, and the column count the parameterisation fixes (None: any)."""
+    nb, na, nt, nf = info.n_beta, info.n_alpha, info.n_theta, info.n_phi
+    return {
+        "pdf1": ("all_PDF1Dslice.txt", False, nb),
+        "ab_colors": ("all_colors.txt", False, 2),
+        "index_ab": ("all_indexAB.txt", True, nb),
+        "pdf2_colours": ("all_PDF2Dcolours.txt", True, na),
+        "pdf2_slices": ("all_PDF2Dslices.txt", True, na),
+        "pdf2_scale": ("all_PDF2Dscale.txt", False, na),
+        "pdf2_indices": ("all_PDF2Dindices.txt", True, 2),
+        "pdf3_slices": ("all_PDF3Dslices.txt", True, nt),
+        "pdf3_scale": ("all_PDF3Dscale.txt", False, nt),
+        "pdf4_slices": ("all_PDF4Dslices.txt", True, nf),
+        "pdf4_scale": ("all_PDF4Dscale.txt", False, nf),
+        "pdf6_slices": (f"{info.name}_PDF6Dslices.txt", True, None),
+        "pdf6_scale": (f"{info.name}_PDF6Dscale.txt", False, None),
+    }
+
+
 def files_of(directory: Path, name: str) -> list[Path]:
     """The files that make up the material (for sizes on disk)."""
     shared = [

@@ -122,22 +122,10 @@ class MLVQBTF(BTF):
     def from_directory(cls, directory: str | Path) -> MLVQBTF:
         directory = Path(directory)
         info = files.read_material_info(directory)
-        d = directory
         nb, na, nt, nf = info.n_beta, info.n_alpha, info.n_theta, info.n_phi
         tables = {
-            "pdf1": files.read_table(d / "all_PDF1Dslice.txt", False, nb),
-            "ab_colors": files.read_table(d / "all_colors.txt", False, 2),
-            "index_ab": files.read_table(d / "all_indexAB.txt", True, nb),
-            "pdf2_colours": files.read_table(d / "all_PDF2Dcolours.txt", True, na),
-            "pdf2_slices": files.read_table(d / "all_PDF2Dslices.txt", True, na),
-            "pdf2_scale": files.read_table(d / "all_PDF2Dscale.txt", False, na),
-            "pdf2_indices": files.read_table(d / "all_PDF2Dindices.txt", True, 2),
-            "pdf3_slices": files.read_table(d / "all_PDF3Dslices.txt", True, nt),
-            "pdf3_scale": files.read_table(d / "all_PDF3Dscale.txt", False, nt),
-            "pdf4_slices": files.read_table(d / "all_PDF4Dslices.txt", True, nf),
-            "pdf4_scale": files.read_table(d / "all_PDF4Dscale.txt", False, nf),
-            "pdf6_slices": files.read_table(d / f"{info.name}_PDF6Dslices.txt", True),
-            "pdf6_scale": files.read_table(d / f"{info.name}_PDF6Dscale.txt", False),
+            name: files.read_table(directory / file, integer, cols)
+            for name, (file, integer, cols) in files.table_files(info).items()
         }
         params = MLVQParams(
             n_beta=nb,
@@ -277,6 +265,44 @@ def _uniform_index(x: np.ndarray, step: float, max_index: int) -> tuple[np.ndarr
     return i, (x - i * step) / step
 
 
+#: Every index table's target, down the chain P6 → P4 → P3 → P2 → (P1, colours → IndexAB →
+#: (Cb, Cr)): (index table, its columns, target table, what it links, 1-based with 0 = none).
+INDEX_LINKS = (
+    ("index_ab", slice(None), "ab_colors", "all_indexAB → all_colors", False),
+    ("pdf2_colours", slice(None), "index_ab", "all_PDF2Dcolours → all_indexAB", False),
+    ("pdf2_slices", slice(None), "pdf1", "all_PDF2Dslices → all_PDF1Dslice", False),
+    (
+        "pdf2_indices",
+        slice(0, 1),
+        "pdf2_slices",
+        "all_PDF2Dindices (luminance) → all_PDF2Dslices",
+        False,
+    ),
+    (
+        "pdf2_indices",
+        slice(1, 2),
+        "pdf2_colours",
+        "all_PDF2Dindices (colour) → all_PDF2Dcolours",
+        False,
+    ),
+    ("pdf3_slices", slice(None), "pdf2_indices", "all_PDF3Dslices → all_PDF2Dindices", False),
+    ("pdf4_slices", slice(None), "pdf3_slices", "all_PDF4Dslices → all_PDF3Dslices", False),
+    (
+        "pdf6_slices",
+        slice(None),
+        "pdf4_slices",
+        "PDF6Dslices → all_PDF4Dslices (1-based)",
+        True,
+    ),
+)
+
+
+def index_range(t: dict[str, np.ndarray], target: str, one_based: bool) -> tuple[int, int]:
+    """The inclusive range of valid indices into ``t[target]`` (0 = none when 1-based)."""
+    n = len(t[target])
+    return (0, n) if one_based else (0, n - 1)
+
+
 def validate_tables(p: MLVQParams, t: dict[str, np.ndarray], source: str) -> None:
     """Shapes and every index range, so decoding can never read out of bounds."""
 
@@ -292,13 +318,13 @@ def validate_tables(p: MLVQParams, t: dict[str, np.ndarray], source: str) -> Non
             raise BTFFormatError(f"{source}: table {name} contains NaN or infinite values")
         return a
 
-    pdf1 = need("pdf1", p.n_beta, False)
-    colors = need("ab_colors", 2, False)
-    iab = need("index_ab", p.n_beta, True)
-    p2c = need("pdf2_colours", p.n_alpha, True)
+    need("pdf1", p.n_beta, False)
+    need("ab_colors", 2, False)
+    need("index_ab", p.n_beta, True)
+    need("pdf2_colours", p.n_alpha, True)
     p2s = need("pdf2_slices", p.n_alpha, True)
     p2sc = need("pdf2_scale", p.n_alpha, False)
-    p2i = need("pdf2_indices", 2, True)
+    need("pdf2_indices", 2, True)
     p3 = need("pdf3_slices", p.n_theta, True)
     p3sc = need("pdf3_scale", p.n_theta, False)
     p4 = need("pdf4_slices", p.n_phi, True)
@@ -315,14 +341,6 @@ def validate_tables(p: MLVQParams, t: dict[str, np.ndarray], source: str) -> Non
         if a.shape != b.shape:
             raise BTFFormatError(f"{source}: {what} shapes differ: {a.shape} vs {b.shape}")
 
-    def rng(a: np.ndarray, n: int, what: str, low: int = 0) -> None:
-        files.check_index_range(a, low, n - 1 + low, Path(source), what)
-
-    rng(iab, len(colors), "all_indexAB → all_colors")
-    rng(p2c, len(iab), "all_PDF2Dcolours → all_indexAB")
-    rng(p2s, len(pdf1), "all_PDF2Dslices → all_PDF1Dslice")
-    rng(p2i[:, :1], len(p2s), "all_PDF2Dindices (luminance) → all_PDF2Dslices")
-    rng(p2i[:, 1:], len(p2c), "all_PDF2Dindices (colour) → all_PDF2Dcolours")
-    rng(p3, len(p2i), "all_PDF3Dslices → all_PDF2Dindices")
-    rng(p4, len(p3), "all_PDF4Dslices → all_PDF3Dslices")
-    files.check_index_range(p6, 0, len(p4), Path(source), "PDF6Dslices → all_PDF4Dslices (1-based)")
+    for index, cols, target, what, one_based in INDEX_LINKS:
+        low, high = index_range(t, target, one_based)
+        files.check_index_range(t[index][:, cols], low, high, Path(source), what)

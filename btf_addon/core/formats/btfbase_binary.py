@@ -15,7 +15,10 @@ tables (docs/formats.md has every field). In short:
   shared files) is read with 0 bits per value, else 1 — whichever parses the whole file.
 
 The text tables of the shared materials hold exactly these dequantised values (to their six
-printed decimals), so both forms decode alike (tests/core/test_btfbase_binary.py).
+printed decimals), so both forms decode alike (tests/core/test_btfbase_binary.py) — except each
+float table's maximum, which the tool wrote as ``q = 256`` and a byte wraps to 0:
+``load_binary`` restores it where the bytes allow (core/formats/btfbase_recover.py) and says
+which entries stayed ambiguous; ``recover=False`` decodes the bytes as written.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import numpy as np
 from ..codecs.btfbase_files import MaterialInfo
 from ..codecs.mlvq import MLVQBTF, MLVQParams
 from ..errors import BTFFormatError, UnsupportedBTFError
+from .btfbase_recover import TableRecovery, recover_table
 
 MAGIC = b"4627"
 
@@ -196,9 +200,34 @@ def _index_table(data, pos, rows, cols, path, table, constant_bits) -> tuple[np.
     return values.astype(np.int32).reshape(rows, cols), pos + 8 + size
 
 
-def _float_table(data, pos, cols, path, table) -> tuple[np.ndarray, int]:
+@dataclass(frozen=True)
+class QuantisedTable:
+    """A float table as stored: ``f32 low, f32 high`` and one byte code per value.
+
+    ``values()`` is what the bytes say, ``v = low + q·(high − low)/256`` — where the tool wrote
+    a table's maximum as ``q = 256``, that wrapped to 0 and reads as ``low``
+    (core/formats/btfbase_recover.py restores what it can)."""
+
+    low: np.float32
+    high: np.float32
+    codes: np.ndarray  # (rows, cols) uint8
+
+    @property
+    def step(self) -> float:
+        return (float(self.high) - float(self.low)) / 256.0
+
+    def __len__(self) -> int:
+        return len(self.codes)
+
+    def values(self) -> np.ndarray:
+        """(rows, cols) float32: the bytes as written (a wrapped maximum reads as ``low``)."""
+        q = self.codes.astype(np.float64)
+        return (np.float32(self.low) + q * self.step).astype(np.float32)
+
+
+def _float_table(data, pos, cols, path, table) -> tuple[QuantisedTable, int]:
     _need(data, pos, 16, path, table)
-    low, high = (float(v) for v in np.frombuffer(data, "<f4", 2, pos))
+    low, high = (np.float32(v) for v in np.frombuffer(data, "<f4", 2, pos))
     rows, ncols = (int(v) for v in np.frombuffer(data, "<u4", 2, pos + 8))
     if not (np.isfinite(low) and np.isfinite(high)) or high < low:
         raise BTFFormatError(f"{path}: table {table}: range [{low}, {high}] is not finite/ordered")
@@ -209,14 +238,23 @@ def _float_table(data, pos, cols, path, table) -> tuple[np.ndarray, int]:
     n = rows * ncols
     size = _payload_bytes(8 * n)
     _need(data, pos + 16, size, path, table)
-    q = np.frombuffer(data, np.uint8, n, pos + 16).astype(np.float64)
-    values = np.float32(low) + q * ((np.float64(high) - np.float64(low)) / 256.0)
-    return values.astype(np.float32).reshape(rows, ncols), pos + 16 + size
+    codes = np.frombuffer(data, np.uint8, n, pos + 16).reshape(rows, ncols)
+    return QuantisedTable(low, high, codes), pos + 16 + size
 
 
 def read_binary(path: str | Path) -> tuple[BinaryHeader, dict[str, np.ndarray]]:
     """``binary.btf`` → its header and the 13 MLVQ tables (int32 indices, float32 values),
-    named as ``core.codecs.mlvq.TABLE_NAMES``."""
+    named as ``core.codecs.mlvq.TABLE_NAMES``: the bytes as written (wrapped maxima read as
+    their table's minimum; ``read_binary_codes`` + btfbase_recover restore them)."""
+    head, tables = read_binary_codes(path)
+    return head, {k: v.values() if isinstance(v, QuantisedTable) else v for k, v in tables.items()}
+
+
+def read_binary_codes(
+    path: str | Path,
+) -> tuple[BinaryHeader, dict[str, np.ndarray | QuantisedTable]]:
+    """``binary.btf`` → its header, the 7 index tables (int32) and the 6 float tables as
+    stored (``QuantisedTable``: range and byte codes)."""
     path = Path(path)
     try:
         data = path.read_bytes()
@@ -241,7 +279,7 @@ def _read_tables(data: bytes, head: BinaryHeader, path: Path, constant_bits: int
         "n_phi": head.n_phi,
     }
     pos = head.data_offset
-    tables: dict[str, np.ndarray] = {}
+    tables: dict[str, np.ndarray | QuantisedTable] = {}
     for table, kind, col_key in BINARY_ORDER:
         cols = columns[col_key] if isinstance(col_key, str) else col_key
         if kind == "f":
@@ -257,16 +295,33 @@ def _read_tables(data: bytes, head: BinaryHeader, path: Path, constant_bits: int
                 f"{path}: table {table} has {len(tables[table])} rows, the header says "
                 f"{head.counts[count]}"
             )
-    if tables["pdf6_scale"].shape != (head.rows, head.cols):
+    if tables["pdf6_scale"].codes.shape != (head.rows, head.cols):
         raise BTFFormatError(f"{path}: the P6 scale table's shape differs from the material's")
     return tables
 
 
-def load_binary(path: str | Path) -> MLVQBTF:
-    """``binary.btf`` → an ``MLVQBTF`` (``meta.extra['btfbase_form'] == 'binary'``)."""
-    head, tables = read_binary(path)
-    hdr = not (abs(head.hdr_value - 1.0) < 1e-6 or abs(head.hdr_value) < 1e-6)
-    params = MLVQParams(
+def binary_tables(
+    path: str | Path, recover: bool = True
+) -> tuple[BinaryHeader, dict[str, np.ndarray], dict[str, TableRecovery]]:
+    """``binary.btf`` → header, the 13 tables, and per float table what was restored: with
+    ``recover`` the wrapped maxima are restored where btfbase_recover's rules allow (ambiguous
+    entries at the midpoint), else the bytes are decoded as written."""
+    head, stored = read_binary_codes(path)
+    tables: dict[str, np.ndarray] = {}
+    recovery: dict[str, TableRecovery] = {}
+    for name, table in stored.items():
+        if not isinstance(table, QuantisedTable):
+            tables[name] = table
+        elif recover:
+            tables[name], recovery[name] = recover_table(name, table, stored["index_ab"])
+        else:
+            tables[name] = table.values()
+    return head, tables, recovery
+
+
+def params_of(head: BinaryHeader) -> MLVQParams:
+    """The codec parameters the header states."""
+    return MLVQParams(
         n_beta=head.n_beta,
         n_alpha=head.n_alpha,
         n_theta=head.n_theta,
@@ -274,11 +329,31 @@ def load_binary(path: str | Path) -> MLVQBTF:
         use_cos_beta=head.use_cos_beta,
         rows_offset=head.rows_offset,
         cols_offset=head.cols_offset,
-        hdr_value=head.hdr_value if hdr else 1.0,
+        hdr_value=head.hdr_value if head.hdr else 1.0,
         n_views=head.n_views,
         n_lights=head.n_lights,
         name=head.name,
     )
-    btf = MLVQBTF(params, tables, source=str(path))
+
+
+def recovery_warnings(path: Path, recovery: dict[str, TableRecovery]) -> list[str]:
+    """One warning per table that still holds ambiguous entries (approximate values)."""
+    return [f"{path}: {r.describe()}" for r in recovery.values() if not r.recovered]
+
+
+def load_binary(path: str | Path, recover: bool = True) -> MLVQBTF:
+    """``binary.btf`` → an ``MLVQBTF`` (``meta.extra['btfbase_form'] == 'binary'``), its
+    wrapped maxima restored unless ``recover`` is False; ``meta.extra['btfbase_recovery']``
+    says per float table what was restored and ``meta.extra['warnings']`` names the tables
+    left with ambiguous (approximate) entries."""
+    path = Path(path)
+    head, tables, recovery = binary_tables(path, recover)
+    btf = MLVQBTF(params_of(head), tables, source=str(path))
     btf.meta.extra["btfbase_form"] = "binary"
+    btf.meta.extra["btfbase_tables"] = dict.fromkeys(tables, "binary")
+    if recover:
+        btf.meta.extra["btfbase_recovery"] = {k: r.to_json() for k, r in recovery.items()}
+        warnings = recovery_warnings(path, recovery)
+        if warnings:
+            btf.meta.extra["warnings"] = warnings
     return btf
