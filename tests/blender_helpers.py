@@ -113,3 +113,55 @@ def forest_world(bpy, name: str = "Forest"):
         texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
     )
     return world
+
+
+class RecordingLayout:
+    """Stands in for bpy.types.UILayout where a test draws a panel (background Blender has no
+    window to draw in): records each ``prop`` (data, name; it must be a real property of that
+    data), label, operator and node view, and hands itself out for rows, columns and boxes."""
+
+    use_property_split = False
+    active = True
+
+    def __init__(self):
+        self.props: list[tuple[object, str]] = []
+        self.node_views: list[tuple] = []
+        self.labels: list[str] = []
+        self.operators: list[str] = []
+
+    def prop(self, data, name, **_kw):
+        assert name in data.bl_rna.properties, name  # a real property of that data
+        self.props.append((data, name))
+
+    def template_node_view(self, ntree, node, socket):
+        self.node_views.append((ntree, node, socket))
+
+    def template_icon(self, **_kw):
+        pass
+
+    def label(self, text="", **_kw):
+        self.labels.append(text)
+
+    def operator(self, idname, **_kw):
+        from types import SimpleNamespace
+
+        self.operators.append(idname)
+        return SimpleNamespace()
+
+    def _child(self, *_a, **_kw):
+        return self
+
+    row = column = box = split = _child
+
+    def separator(self, **_kw):
+        pass
+
+
+def draw_panel(panel, context) -> RecordingLayout:
+    """``panel``'s draw into a RecordingLayout, with ``context`` (a SimpleNamespace of what the
+    panel reads)."""
+    from types import SimpleNamespace
+
+    layout = RecordingLayout()
+    panel.draw(SimpleNamespace(layout=layout), context)
+    return layout

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
-from blender_helpers import extension_submodule, sphere_on_ground
+from blender_helpers import draw_panel, extension_submodule, sphere_on_ground
 
 from btf_addon.core.codecs.analytic import LambertianBTF
 from btf_addon.core.formats.container import write_container
@@ -28,7 +28,6 @@ def test_the_quick_estimate_is_the_default_and_speaks_in_words(bpy_module, fresh
     """Issue 32 item 4: the default estimate measures only the scene's own mode's work knob
     (the samples or lights a designer trades against time) on a small preview, and the panel
     says the result in words: no "rung", no "rmse", no ``texel_filter=LINEAR``."""
-    from types import SimpleNamespace
 
     bpy = bpy_module
     write_container(tmp_path / "lambert.btfm", LambertianBTF(0.7))
@@ -52,30 +51,8 @@ def test_the_quick_estimate_is_the_default_and_speaks_in_words(bpy_module, fresh
     assert rec["words"].endswith("at full size (48×32)")
     assert not rec["met"] and "samples would" in rec["reason_words"]
 
-    labels = []
-
-    class Layout:
-        use_property_split = False
-
-        def label(self, text="", **_kw):
-            labels.append(text)
-
-        def prop(self, *_a, **_kw):
-            pass
-
-        def operator(self, *_a, **_kw):
-            return SimpleNamespace()
-
-        def template_icon(self, **_kw):
-            pass
-
-        def _child(self, *_a, **_kw):
-            return self
-
-        row = column = box = _child
-
     module = extension_submodule("btf_addon.blender.accuracy.operator")
-    module.BTF_PT_render_accuracy.draw(SimpleNamespace(layout=Layout()), bpy.context)
+    labels = draw_panel(module.BTF_PT_render_accuracy, bpy.context).labels
     shown = " ".join(labels)
     assert f"Recommended: {rec['words']}" in labels and rec["reason_words"] in labels
     for jargon in ("rung", "rmse", "RMSE", "texel_filter", "="):

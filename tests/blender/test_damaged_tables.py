@@ -8,7 +8,7 @@ from __future__ import annotations
 import shutil
 from types import SimpleNamespace
 
-from blender_helpers import extension_submodule, sphere_on_ground
+from blender_helpers import draw_panel, extension_submodule, sphere_on_ground
 from helpers import shared_material
 
 
@@ -33,29 +33,9 @@ def test_a_damaged_table_is_shown_reported_and_the_binary_form_chosen(
     notes = [m for m in exported.messages if "all_PDF3Dscale.txt" in m]
     assert notes and material.name in notes[0], exported.messages
 
-    labels = []
-
-    class Layout:
-        use_property_split = False
-        active = True
-
-        def label(self, text="", **_kw):
-            labels.append(text)
-
-        def prop(self, *_a, **_kw):
-            pass
-
-        def operator(self, *_a, **_kw):
-            return SimpleNamespace()
-
-        def _child(self, *_a, **_kw):
-            return self
-
-        row = column = box = _child
-
     panels = extension_submodule("btf_addon.blender.ui.btf_panels")
     context = SimpleNamespace(engine="BTF_RENDER", material=material)
-    panels.BTF_PT_material.draw(SimpleNamespace(layout=Layout()), context)
+    labels = draw_panel(panels.BTF_PT_material, context).labels
     assert any("all_PDF3Dscale.txt" in t for t in labels), labels
 
     # F12 says it too (a warning, the render goes on).

@@ -8,48 +8,13 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import pytest
-from blender_helpers import extension_submodule, with_nodes
+from blender_helpers import RecordingLayout, draw_panel, extension_submodule, with_nodes
 
 ENGINE = "BTF_RENDER"
 
 
-class RecordingLayout:
-    """Stands in for bpy.types.UILayout: records each ``prop`` (data, name) and each node
-    view, and hands itself out for rows, columns and boxes."""
-
-    def __init__(self):
-        self.props: list[tuple[object, str]] = []
-        self.node_views: list[tuple] = []
-        self.labels: list[str] = []
-        self.operators: list[str] = []
-
-    def prop(self, data, name, **_kw):
-        assert name in data.bl_rna.properties, name  # a real property of that data
-        self.props.append((data, name))
-
-    def template_node_view(self, ntree, node, socket):
-        self.node_views.append((ntree, node, socket))
-
-    def label(self, text="", **_kw):
-        self.labels.append(text)
-
-    def operator(self, idname, **_kw):
-        self.operators.append(idname)
-        return SimpleNamespace()
-
-    def _child(self, *_a, **_kw):
-        return self
-
-    row = column = box = split = _child
-
-    def separator(self, **_kw):
-        pass
-
-
 def draw(panel, context) -> RecordingLayout:
-    layout = RecordingLayout()
-    panel.draw(SimpleNamespace(layout=layout), context)
-    return layout
+    return draw_panel(panel, context)
 
 
 def names(layout: RecordingLayout) -> set[str]:

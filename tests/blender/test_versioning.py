@@ -9,7 +9,7 @@ import shutil
 
 import numpy as np
 import pytest
-from blender_helpers import extension_submodule
+from blender_helpers import draw_panel, extension_submodule
 from helpers import ROOT
 
 DATA = ROOT / "tests" / "data"
@@ -112,27 +112,8 @@ def test_the_upgrade_is_reported_and_shown_in_the_render_panel(
     assert "Info: BTF:" in out and "kept its look" in out, out[-2000:]
     assert versioning.upgraded
 
-    labels = []
-
-    class Layout:
-        use_property_split = False
-
-        def label(self, text="", **_kw):
-            labels.append(text)
-
-        def prop(self, *_a, **_kw):
-            pass
-
-        def operator(self, *_a, **_kw):
-            return SimpleNamespace()
-
-        def _child(self, *_a, **_kw):
-            return self
-
-        row = column = box = _child
-
     context = SimpleNamespace(engine="BTF_RENDER", scene=bpy.context.scene)
-    panels.BTF_PT_render_settings.draw(SimpleNamespace(layout=Layout()), context)
+    labels = draw_panel(panels.BTF_PT_render_settings, context).labels
     assert any(t.startswith("Opened from an older version") for t in labels), labels
     assert set(versioning.upgraded) <= set(labels)
     bpy.ops.wm.read_homefile(use_empty=True)  # another file: the note goes
