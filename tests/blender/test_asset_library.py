@@ -346,6 +346,11 @@ def test_blenders_own_material_preview_renders_through_the_engine(
     monkeypatch.setattr(final_render, "set_passes", watched_set_passes)
     material.preview_ensure()
     with bpy.context.temp_override(id=material):
+        if not bpy.ops.ed.lib_id_generate_preview.poll():
+            pytest.skip(
+                f"Blender {bpy.app.version_string}'s Generate Preview operator refuses a "
+                "windowless context (5.3 asks for more than an ID); 4.2 to 5.0 run it"
+            )
         assert bpy.ops.ed.lib_id_generate_preview() == {"FINISHED"}
     assert finished.wait(120), "Blender's preview job never called the engine"
     assert seen["is_preview"]
