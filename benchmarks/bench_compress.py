@@ -11,28 +11,52 @@ same measure at the encoder's own samples (the onion-slice grid): the quantisati
 Assign rows (``--assign``): the nearest-codeword step, numpy (float32 BLAS product + argmax)
 against the OpenCL kernel (cl/encoder_assign.py) on the default device, same inputs.
 
+CLI rows (``--cli alu``): ``python -m btf_addon compress`` at default settings, this tree and
+``--baseline-rev`` (the encoder before issue 30 item 18: whole-array copies of the grid
+samples, 3.4 GB) side by side in the same run, each in its own process: wall time, the
+report's encode time, peak RSS (``wait4``), PSNR and SSIM, and the baseline / this-tree
+ratios. The baseline package is read with ``git archive`` (nothing in the checkout changes).
+
+Scaling rows (``--scaling``): the encoder alone on alu's tables tiled to 32², 64², 128² texels
+(all of them training texels) and with alu's P2 entries cut to fewer: encode seconds, and
+tracemalloc's peak of numpy arrays in a second, traced encode, against ``working_set_bytes``;
+and alu read as any other source is (sampled through ``evaluate_angles``, most of that row's
+time, into its formed float32 grid samples, 666 MB).
+
 Usage: python benchmarks/bench_compress.py [--real alu wallpaper] [--no-synthetic] [--assign]
+       [--cli alu] [--baseline-rev REV] [--scaling]
 """
 
 from __future__ import annotations
 
 import argparse
+import io
+import json
+import os
 import re
+import subprocess
+import sys
+import tarfile
+import tempfile
 import time
+import tracemalloc
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
-from common import SHARED_BTFBASE, decode_rate, table
+from common import ROOT, SHARED_BTFBASE, decode_rate, table
 
 from btf_addon.core.codecs.analytic import GGXBTF
 from btf_addon.core.codecs.dense import DenseBTF, tabulate
 from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.encoders import metrics
+from btf_addon.core.encoders import mlvq as mlvq_module
 from btf_addon.core.encoders.mlvq import (
     MLVQSettings,
     _mlvq_grid_values,
     encode_mlvq,
     sample_grid,
+    working_set_bytes,
 )
 
 HEADERS = [
@@ -190,12 +214,155 @@ def assign_rows() -> list[list]:
     return out
 
 
+#: The tree before issue 30 item 18 (79–95 s, 3.4 GB on alu on the 2-core machine).
+BASELINE_REV = "8bd667c"
+
+CLI_HEADERS = [
+    "compress alu (default settings)",
+    "wall s",
+    "encode s",
+    "peak RSS MB",
+    "PSNR dB",
+    "SSIM",
+]
+
+
+def run_cli(package_root: Path, src: Path, out: Path) -> dict:
+    """One ``python -m btf_addon compress src -o out`` with ``package_root`` first on the path:
+    wall seconds, peak RSS (MB, this child alone, from wait4) and its JSON report."""
+    env = {**os.environ, "PYTHONPATH": str(package_root)}
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "btf_addon", "compress", str(src), "-o", str(out)],
+        cwd=package_root,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+    )
+    text = proc.stdout.read()
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"compress under {package_root} exited {proc.returncode}")
+    return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "report": json.loads(text)}
+
+
+def cli_rows(name: str, rev: str) -> list[list]:
+    """This tree's CLI and ``rev``'s (extracted with git archive) on one material, then the
+    ratios baseline / this tree (above 1: this tree is faster / smaller)."""
+    src = SHARED_BTFBASE / name
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(tmp) / "baseline"
+        base.mkdir()
+        archive = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", "--format=tar", rev, "btf_addon"],
+            check=True,
+            capture_output=True,
+        ).stdout
+        with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+            tar.extractall(base, filter="data")
+        runs = {}
+        for label, root in ((f"baseline {rev}", base), ("this tree", ROOT)):
+            runs[label] = run_cli(root, src, Path(tmp) / f"{label.split()[0]}.btfm")
+    rows = []
+    for label, r in runs.items():
+        rep = r["report"]
+        rows.append(
+            [label, r["wall"], rep["encode_seconds"], r["rss_mb"], rep["psnr_db"], rep["ssim"]]
+        )
+    b, t = rows
+    rows.append(
+        [
+            "ratio baseline / this tree",
+            b[1] / t[1],
+            b[2] / t[2],
+            b[3] / t[3],
+            b[4] - t[4],
+            b[5] - t[5],
+        ]
+    )
+    rows[-1][4] = f"{rows[-1][4]:+.3f} (difference)"
+    rows[-1][5] = f"{rows[-1][5]:+.5f} (difference)"
+    return rows
+
+
+SCALING_HEADERS = [
+    "texels",
+    "P2 entries",
+    "encode s",
+    "CPU s (2 threads)",
+    "traced peak MB",
+    "working_set_bytes MB",
+    "formed grid MB",
+]
+
+
+def tiled(src: MLVQBTF, reps: int, entries: int | None = None) -> MLVQBTF:
+    """``src`` with its texel tables tiled ``reps`` × ``reps`` (or cut to the top-left quarter
+    for reps 0), its P2 entries cut to the first ``entries`` (P3 rows pointing at them)."""
+    t = src.tables()
+    if reps == 0:
+        h, w = t["pdf6_slices"].shape
+        t["pdf6_slices"] = t["pdf6_slices"][: h // 2, : w // 2].copy()
+        t["pdf6_scale"] = t["pdf6_scale"][: h // 2, : w // 2].copy()
+    else:
+        t["pdf6_slices"] = np.tile(t["pdf6_slices"], (reps, reps))
+        t["pdf6_scale"] = np.tile(t["pdf6_scale"], (reps, reps))
+    if entries is not None:
+        t["pdf2_indices"] = t["pdf2_indices"][:entries].copy()
+        t["pdf3_slices"] = t["pdf3_slices"] % entries
+    return MLVQBTF(src.p, t, source="scaled")
+
+
+def scaling_rows(name: str = "alu") -> list[list]:
+    """Encode time and traced peak against texels (alu tiled) and P2 entries (alu's cut to
+    fewer); every texel trains (train_texels 0)."""
+    src = MLVQBTF.from_directory(SHARED_BTFBASE / name)
+    s = MLVQSettings(train_texels=0)
+    rows = []
+    cases = [(0, None, True), (1, None, True), (2, None, True), (1, 430, True), (1, 860, True)]
+    cases.append((1, None, False))  # the grid formed, as for a dense source
+    for reps, entries, factored in cases:
+        btf = tiled(src, reps, entries)
+        n = btf.meta.width * btf.meta.height
+        used = len(btf.t["pdf2_indices"])
+        same_grid = mlvq_module._same_grid
+        if not factored:  # read alu as any other source: its grid samples formed in float32
+            mlvq_module._same_grid = lambda *_: False
+        try:
+            t0, c0 = time.perf_counter(), time.process_time()
+            encode_mlvq(btf, s)
+            seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+            tracemalloc.start()  # a second encode: tracing doubles the time
+            encode_mlvq(btf, s)
+            _, peak = tracemalloc.get_traced_memory()
+            tracemalloc.stop()
+        finally:
+            mlvq_module._same_grid = same_grid
+        bound = working_set_bytes(n, s, used if factored else None)
+        grid = n * s.n_phi * s.n_theta * s.n_alpha * s.n_beta * 3 * 4
+        label = n if factored else f"{n} (sampled, grid formed)"
+        rows.append([label, used, seconds, cpu, peak / 2**20, bound / 2**20, grid / 2**20])
+        print(table(SCALING_HEADERS, rows[-1:]), flush=True)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> str:
     parser = argparse.ArgumentParser()
     parser.add_argument("--real", nargs="*", default=[])
     parser.add_argument("--no-synthetic", action="store_true")
     parser.add_argument("--assign", action="store_true", help="the assign-step speed rows")
+    parser.add_argument("--cli", nargs="*", default=[], help="CLI rows against the baseline")
+    parser.add_argument("--baseline-rev", default=BASELINE_REV)
+    parser.add_argument("--scaling", action="store_true", help="time and memory against size")
     args = parser.parse_args(argv)
+    extra = []
+    for name in args.cli:
+        extra.append(table(CLI_HEADERS, cli_rows(name, args.baseline_rev)))
+        print(extra[-1], flush=True)
+    if args.scaling:
+        extra.append(table(SCALING_HEADERS, scaling_rows()))
     rows = []
     speed = assign_rows() if args.assign else []
     if not args.no_synthetic:
@@ -223,6 +390,8 @@ def main(argv: list[str] | None = None) -> str:
     text = table(HEADERS, rows) if rows else ""
     if speed:
         text += ("\n\n" if text else "") + table(ASSIGN_HEADERS, speed)
+    for part in extra:
+        text += ("\n\n" if text else "") + part
     return text
 
 

@@ -38,6 +38,8 @@ def test_compress_writes_a_material_and_reports_its_numbers(source, tmp_path, ca
     enc = load_btf(out)
     assert enc.meta.codec == "mlvq" and report["output"] == str(out)
     assert report["file_bytes"] == out.stat().st_size
+    # Issue 31: the ratio that means the file on disk.
+    assert report["file_ratio"] == pytest.approx(report["raw_bytes"] / report["file_bytes"], 1e-3)
     assert report["raw_bytes"] == 81 * 81 * 4 * 4 * 3
     assert report["packed_ratio"] == pytest.approx(
         report["raw_bytes"] / report["packed_bytes"], rel=1e-3

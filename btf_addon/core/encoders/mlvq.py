@@ -23,8 +23,8 @@ and only given its P6 entry (memory: the training texels, not W × H):
    column over β = scale × a P1 vector (k-means, ``k1``); (Cb, Cr) per sample quantised to
    ``k_colours`` colours; per α the β-run of colours → ``k_index_ab`` index rows; per entry the
    α-run of index rows → ``k_colour_functions`` rows; the entries are then decoded exactly as
-   the decoder does, and every 2D function is re-assigned to its best decoded entry with its
-   least-squares scale;
+   the decoder does (a 2D function's best decoded entry and least-squares scale are computed
+   only where level 3 keeps its θv runs as they are: no more lit runs than ``k3``);
 3. per (texel, φv) the θv run of (entry, scale) → ``k3`` P3 rows (k-means on the data,
    centroids re-encoded by the decoded entries);
 4. per texel the φv run of (P3 row, scale) → ``k4`` P4 rows, likewise; P6 = the texel's P4 row
@@ -33,6 +33,16 @@ and only given its P6 entry (memory: the training texels, not W × H):
 Scales may then be quantised (``scale_bits``: uniform between each table's min and max, as the
 original tool's ``quantreport.txt`` mode 0); the container stores float32 either way, and the
 report counts the bits such a packing needs.
+
+Memory and time (``working_set_bytes``). Every pass over the data goes block by block
+(``kmeans.ROW_BLOCK`` values, ``kmeans.BLOCK`` scores). An LDR MLVQ source on the same grid
+(re-encoding a BTFbase material such as alu) is never formed: each 2D function is a stored
+entry times a scale (``kmeans.FactoredRows``), so products, norms and cluster sums go through
+the E entries (parts × E × g × K multiply-adds per product instead of rows × parts × g × K),
+and memory grows with the 2D functions' indices and scales (12 bytes each), not with their
+values (1452 bytes each). Any other source is sampled once into float32 (162 624 bytes a
+training texel at the default grid) and read in blocks; a level's normalised training rows are
+copied only up to SAMPLE_ELEMENTS values.
 """
 
 from __future__ import annotations
@@ -47,7 +57,16 @@ from ..codecs.mlvq import LDR_VALUE_SCALE, MLVQBTF, MLVQParams
 from ..colour import ycbcr_to_rgb
 from ..errors import BTFFormatError
 from ..model import BTF
-from .kmeans import Assign, kmeans, nearest
+from .kmeans import (
+    Assign,
+    FactoredRows,
+    LazyRows,
+    kmeans,
+    nearest,
+    row_block,
+    row_stats,
+    scaled_rows,
+)
 
 #: ``progress(fraction 0..1, what)``; may raise (KeyboardInterrupt, a cancel exception) to stop.
 Progress = Callable[[float, str], None]
@@ -65,6 +84,10 @@ _OFFSET = np.array([16.0, 128.0, 128.0])
 #: 2D functions are clustered at this mean RGB (8-bit scale): the luminance then sits well
 #: above the studio-swing offset of 16, as in the original's tables.
 _NORM_MEAN = 100.0
+#: A level's normalised training rows are copied (float32) when they hold at most this many
+#: values (256 MB: level 3's 20 000 θv runs × 2541 = 51 M at the defaults); more (level 4's
+#: 4096 texels × 40 656 = 166 M on alu) are read normalised block by block at every pass.
+SAMPLE_ELEMENTS = 1 << 26
 
 
 @dataclass(frozen=True)
@@ -115,6 +138,45 @@ class MLVQSettings:
 class EncodeStats:
     seconds: float
     counts: dict[str, int]
+
+
+def working_set_bytes(n_texels: int, s: MLVQSettings, n_entries: int | None = None) -> int:
+    """A bound on the bytes of numpy arrays ``encode_mlvq`` holds at once (as tracemalloc
+    counts them) for ``n_texels`` training texels, from its own block constants.
+
+    ``n_entries``: the source is an LDR MLVQ material on the encoder's grid with that many P2
+    entries, read as :class:`FactoredRows` (nothing of size texels × grid is formed); None:
+    any other source, whose grid samples are formed (texels × 162 624 bytes at the default
+    grid) plus up to SAMPLE_ELEMENTS float32 of one level's training copy; the source's own
+    ``evaluate_angles`` temporaries are not counted. Terms, generous: per 2D function (texel ×
+    φv × θv) 96 bytes (entry, scale, mean, maximum, weights and their temporaries); the
+    entries 64 bytes a value; per level K × D × 48 (centres, unit centres, float64 sums, decoded
+    rows: all levels at once); the largest factored product (parts × E × K float32, twice);
+    training-row factors and their sort keys (rows × parts × 48); four score blocks of BLOCK
+    float32 and four data blocks of ROW_BLOCK float64."""
+    from . import kmeans as km
+
+    g2 = s.n_alpha * s.n_beta * 3
+    rows2 = n_texels * s.n_phi * s.n_theta
+    levels = [  # (rows, parts, k): level 2's 2D functions, level 3's θv runs, level 4's texels
+        (rows2, 1, s.k2),
+        (n_texels * s.n_phi, s.n_theta, s.k3),
+        (n_texels, s.n_phi * s.n_theta, s.k4),
+    ]
+    entries = n_entries if n_entries is not None else max(s.k2, 1)
+    codebooks = sum(min(k, n) * parts * g2 * 48 for n, parts, k in levels)
+    codebooks += (s.k1 * s.n_beta + s.k2 * g2) * 8 * 8  # the P1 / colour split (float64)
+    products = max(parts * entries * min(k, n) * 4 * 2 for n, parts, k in levels)
+    training = max(min(n, s.train_rows(k)) * parts * 48 for n, parts, k in levels)
+    blocks = 4 * km.BLOCK * 4 + 4 * km.ROW_BLOCK * 8
+    total = rows2 * 96 + entries * g2 * 64 + codebooks + products + training + blocks
+    if n_entries is None:
+        grid = rows2 * g2 * 4
+        sample = max(
+            min(min(n, s.train_rows(k)) * parts * g2, SAMPLE_ELEMENTS) for n, parts, k in levels
+        )
+        total += grid + 2 * sample * 4
+    return int(total)
 
 
 def grid_params(btf: BTF, s: MLVQSettings, name: str | None = None) -> MLVQParams:
@@ -180,9 +242,13 @@ def _entry_rgb(t: dict[str, np.ndarray]) -> np.ndarray:
     return ycbcr_to_rgb(lum.astype(np.float64), ab[..., 0], ab[..., 1])
 
 
-def _mlvq_grid_values(btf: MLVQBTF, texels: np.ndarray | None = None) -> np.ndarray:
-    """An LDR MLVQ material's values at its own samples, straight from its tables, for
-    ``texels`` (row-major; default all)."""
+def _mlvq_factors(
+    btf: MLVQBTF, texels: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An LDR MLVQ material at its own samples as factors: every P2 entry (E, n_alpha,
+    n_beta, 3) float32, and per (texel, φv, θv) of ``texels`` (row-major; default all) the
+    entry (T, n_phi, n_theta) int64 and its scale (T, n_phi, n_theta) float32; the value is
+    entry × scale."""
     t, p = btf.t, btf.p
     h, w = t["pdf6_slices"].shape
     if texels is None:
@@ -194,11 +260,87 @@ def _mlvq_grid_values(btf: MLVQBTF, texels: np.ndarray | None = None) -> np.ndar
     slot = np.maximum(slot, 0)
     idx3 = t["pdf4_slices"][slot]  # (T, φ)
     s4 = t["pdf4_scale"][slot]
-    idx2 = t["pdf3_slices"][idx3]  # (T, φ, θ)
+    idx2 = t["pdf3_slices"][idx3].astype(np.int64)  # (T, φ, θ)
     s3 = t["pdf3_scale"][idx3]
     entries = _entry_rgb(t).astype(np.float32)
     scale = (s6[:, None, None] * s4[:, :, None] * s3).astype(np.float32)
+    return entries, idx2, scale
+
+
+def _mlvq_grid_values(btf: MLVQBTF, texels: np.ndarray | None = None) -> np.ndarray:
+    """An LDR MLVQ material's values at its own samples, straight from its tables, for
+    ``texels`` (row-major; default all)."""
+    entries, idx2, scale = _mlvq_factors(btf, texels)
     return entries[idx2] * scale[..., None, None, None]
+
+
+#: ``rows(parts)``: the input on the MLVQ grid as (T · n_phi · n_theta / parts, parts · n_alpha ·
+#: n_beta · 3) float32 rows, ``parts`` consecutive 2D functions per row (1: level 2's 2D
+#: functions, n_theta: level 3's θv runs, n_phi · n_theta: level 4's texels).
+GridRows = Callable[[int], "np.ndarray | LazyRows"]
+
+
+def grid_rows(
+    btf: BTF, p: MLVQParams, texels: np.ndarray, progress: Progress | None = None
+) -> GridRows:
+    """``texels`` of the input on the MLVQ grid, as :data:`GridRows`, equal to
+    ``sample_grid(btf, p, progress, texels)`` reshaped.
+
+    An LDR MLVQ source on the same grid stays in its tables: :class:`FactoredRows` (entries
+    clamped at 0 times non-negative scales; with a negative scale, :class:`LazyRows` whose
+    blocks are formed entry × scale when read), so nothing of size T × n_phi × n_theta ×
+    n_alpha × n_beta × 3 is formed. Any other source is sampled once into that float32 array
+    (``sample_grid``): 4 × 16 × 7 × 11 × 11 × 3 = 162 624 bytes a texel at the default
+    grid."""
+    if _same_grid(btf, p):
+        entries, idx2, scale = _mlvq_factors(btf, texels)
+        flat_entries = entries.reshape(len(entries), -1)
+        finite = np.isfinite(flat_entries).all() and np.isfinite(scale).all()
+        # A product past float32's range would be infinite where the array is not: refused
+        # by the array path (check_finite) with the texel named.
+        if finite and float(np.abs(flat_entries).max(initial=0.0)) * float(
+            np.abs(scale).max(initial=0.0)
+        ) < float(np.finfo(np.float32).max):
+            if (scale >= 0).all():  # max(e · s, 0) = max(e, 0) · s: factored rows
+                return _factored_rows(np.maximum(flat_entries, 0.0), idx2.ravel(), scale.ravel())
+            return _table_rows(flat_entries, idx2.ravel(), scale.ravel())
+    values = sample_grid(btf, p, progress, texels)
+    g = values[0, 0, 0].size if len(values) else p.n_alpha * p.n_beta * 3
+
+    def rows(parts: int) -> np.ndarray:
+        return values.reshape(-1, parts * g)
+
+    return rows
+
+
+def _factored_rows(entries: np.ndarray, idx: np.ndarray, scale: np.ndarray) -> GridRows:
+    """:data:`GridRows` of 2D functions ``entries[idx] * scale`` (entries ≥ 0, scales ≥ 0)
+    as :class:`FactoredRows`: products go through the entries, rows are never formed."""
+
+    def rows(parts: int) -> FactoredRows:
+        return FactoredRows(entries, idx.reshape(-1, parts), scale.reshape(-1, parts))
+
+    return rows
+
+
+def _table_rows(entries: np.ndarray, idx: np.ndarray, scale: np.ndarray) -> GridRows:
+    """:data:`GridRows` of 2D functions ``entries[idx] * scale`` (clamped at 0, as
+    ``sample_grid``), computed on demand."""
+    g = entries.shape[1]
+
+    def rows(parts: int) -> LazyRows:
+        offsets = np.arange(parts, dtype=np.int64)
+
+        def get(index: np.ndarray) -> np.ndarray:
+            flat = (index[:, None] * parts + offsets).reshape(-1)
+            out = entries[idx[flat]]
+            out *= scale[flat, None]
+            np.maximum(out, 0.0, out=out)
+            return out.reshape(len(index), parts * g)
+
+        return LazyRows(len(idx) // parts, parts * g, get)
+
+    return rows
 
 
 def _evaluate_grid(
@@ -245,8 +387,20 @@ def encode_mlvq(
     """Compress ``btf`` → an ``MLVQBTF`` (LDR, 8-bit scale values) and its statistics.
 
     ``assign``: the nearest-codeword step of every level (default ``kmeans.nearest``, numpy);
-    ``cl.encoder_assign.opencl_assign_or_none()`` gives the OpenCL one."""
-    assign = nearest if assign is None else assign
+    ``cl.encoder_assign.opencl_assign_or_none()`` gives the OpenCL one.
+
+    Memory (:func:`working_set_bytes`): the grid samples of the training texels (none for an
+    MLVQ source on the same grid: :func:`grid_rows`), each level's normalised training copy
+    when it has at most SAMPLE_ELEMENTS values (else it is read normalised block by block),
+    the codebooks, and blocks of ``kmeans.ROW_BLOCK`` / ``kmeans.BLOCK`` elements."""
+    device = nearest if assign is None else assign
+
+    def assign(x, centres, scale_free):
+        # Factored rows are cheaper through their table than any product over formed rows.
+        if isinstance(x, FactoredRows) and x.factored(len(centres)):
+            return nearest(x, centres, scale_free)
+        return device(x, centres, scale_free)
+
     start = time.perf_counter()
     s = settings
     rng = np.random.default_rng(s.seed)
@@ -267,13 +421,13 @@ def encode_mlvq(
         train_texels = np.arange(h * w)
     else:
         train_texels = np.sort(rng.choice(h * w, s.train_texels, replace=False))
-    values = sample_grid(btf, p, lambda f, w: step(0.25 * f, w), train_texels)
-    n_tex = len(values)
-    n2 = (n_tex * s.n_phi * s.n_theta, s.n_alpha * s.n_beta * 3)
-    x2 = values.reshape(n2)
+    grid = grid_rows(btf, p, train_texels, lambda f, w: step(0.25 * f, w))
+    x2 = grid(1)  # (T·φ·θ, α·β·3): the 2D functions
+    x3 = grid(s.n_theta)  # (T·φ, θ·α·β·3): the θv runs
+    x4 = grid(s.n_phi * s.n_theta)  # (T, φ·θ·α·β·3): the texels
 
     step(0.25, "level 2: clustering 2D functions")
-    mean2 = x2.mean(axis=1, dtype=np.float64)
+    mean2, _ = row_stats(x2)
     lit = mean2 > 0
     train_rows = np.flatnonzero(lit)
     if len(train_rows) == 0:
@@ -282,68 +436,55 @@ def encode_mlvq(
     sample = train_rows
     if len(sample) > s.train_rows(s.k2):
         sample = np.sort(rng.choice(train_rows, s.train_rows(s.k2), replace=False))
+    if isinstance(x2, FactoredRows):
+        training = x2.subset(sample, norm[sample])
+    else:
+        training = np.asarray(x2[sample], dtype=np.float32)
+        training *= norm[sample, None]
+    del mean2, norm
     centres2, _ = kmeans(
-        x2[sample] * norm[sample, None], s.k2, rng, s.iterations, s.train_rows(s.k2), cancel, assign
+        training, s.k2, rng, s.iterations, s.train_rows(s.k2), cancel, assign, labels=False
     )
+    del training
     if not lit.any():
         centres2[:] = 0.0
+    del lit
 
     step(0.45, "level 1: luminance slices and colours")
     t = _split_entries(centres2.reshape(-1, s.n_alpha, s.n_beta, 3), s, rng, cancel, assign)
     decoded2 = _entry_rgb(t).reshape(len(centres2), -1).astype(np.float32)
 
-    step(0.55, "level 2: assigning 2D functions")
-    idx2, s3_inst = assign(x2, decoded2, True)
-
+    # Level 2's assignment of every 2D function is only read where level 3 keeps its
+    # instances as they are (no more lit θv runs than k3): encoded there, for those rows.
     step(0.65, "level 3: clustering θv runs")
-    n3 = n_tex * s.n_phi
-    x3 = values.reshape(n3, -1)
-    p3_idx, p3_scale, decoded3, idx3, s4_inst = _level(
-        x3,
-        s.n_theta,
-        decoded2,
-        idx2.reshape(n3, -1),
-        s3_inst.reshape(n3, -1),
-        s.k3,
-        s,
-        rng,
-        cancel,
-        assign,
-    )
+    p3_idx, p3_scale, decoded3 = _level(x3, s.n_theta, decoded2, s.k3, s, rng, cancel, assign)
     t["pdf3_slices"], t["pdf3_scale"] = p3_idx, p3_scale
 
     step(0.8, "level 4: clustering φv runs")
-    x4 = values.reshape(n_tex, -1)
-    p4_idx, p4_scale, decoded4, idx4, s6 = _level(
-        x4,
-        s.n_phi,
-        decoded3,
-        idx3.reshape(n_tex, -1),
-        s4_inst.reshape(n_tex, -1),
-        s.k4,
-        s,
-        rng,
-        cancel,
-        assign,
-    )
+    p4_idx, p4_scale, decoded4 = _level(x4, s.n_phi, decoded3, s.k4, s, rng, cancel, assign)
     t["pdf4_slices"], t["pdf4_scale"] = p4_idx, p4_scale
     del decoded3
 
-    black = ~(x4.max(axis=1) > 0)
+    step(0.82, "level 6: assigning texels")
+    idx4, s6 = assign(x4, decoded4, True)
+    _, peak4 = row_stats(x4)
+    black = ~(peak4 > 0)
     slots = np.zeros(h * w, dtype=np.int32)
     scales = np.zeros(h * w, dtype=np.float32)
     slots[train_texels] = np.where(black, 0, idx4 + 1)
     scales[train_texels] = np.where(black, 0.0, s6)
-    del values, x2, x3, x4
+    del grid, x2, x3, x4
     rest = np.setdiff1d(np.arange(h * w), train_texels)
     for first in range(0, len(rest), s.block_texels):  # not `start`: that is the clock
         step(0.85 + 0.1 * first / len(rest), "level 6: texels outside the training sample")
         block = rest[first : first + s.block_texels]
-        x = sample_grid(btf, p, None, block).reshape(len(block), -1)
+        x = grid_rows(btf, p, block)(s.n_phi * s.n_theta)
         idx, scale = assign(x, decoded4, True)
-        lit = x.max(axis=1) > 0
+        _, peak = row_stats(x)
+        lit = peak > 0
         slots[block] = np.where(lit, idx + 1, 0)
         scales[block] = np.where(lit, scale, 0.0)
+        del x
     del decoded4
     t["pdf6_slices"] = slots.reshape(h, w)
     t["pdf6_scale"] = scales.reshape(h, w)
@@ -359,29 +500,40 @@ def encode_mlvq(
     return out, EncodeStats(time.perf_counter() - start, counts)
 
 
-def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel, assign):
-    """One upper level: instances ``x`` (N, parts·D) already encoded part by part as
-    (idx_below, scale_below) (N, parts). Clusters the normalised data, re-encodes each centre
-    part by part on ``decoded_below`` (K_below, D), then assigns every instance to its best
-    decoded row with a least-squares scale. Returns the rows (indices int32, scales float32),
-    the decoded rows (K, parts·D) float32, and per instance (row, scale)."""
-    n = len(x)
-    mean = x.mean(axis=1, dtype=np.float64)
+def _level(x, parts, decoded_below, k, s, rng, cancel, assign):
+    """One upper level: instances ``x`` (N, parts·D) (an array or LazyRows). Clusters the
+    normalised data, re-encodes each centre part by part on ``decoded_below`` (K_below, D).
+    Returns the rows (indices int32, scales float32) and the decoded rows (K, parts·D)
+    float32.
+
+    The training rows (lit instances, at most ``train_rows(k)``, each scaled to a mean of
+    _NORM_MEAN) are copied when they hold at most SAMPLE_ELEMENTS values, else read through
+    ``scaled_rows`` block by block. With no more lit instances than ``k`` they are the
+    codebook themselves, encoded part by part on ``decoded_below``."""
+    mean, _ = row_stats(x)
     lit = np.flatnonzero(mean > 0)
     if len(lit) == 0:
         lit = np.arange(1)
     n_pick = s.train_rows(k)
     pick = lit if len(lit) <= n_pick else np.sort(rng.choice(lit, n_pick, replace=False))
-    sample = x[pick] * (_NORM_MEAN / np.maximum(mean[pick], 1e-30)).astype(np.float32)[:, None]
+    norm = (_NORM_MEAN / np.maximum(mean[pick], 1e-30)).astype(np.float32)
+    del mean
     if len(lit) <= k:
         # Few instances: their own (already encoded) rows are the codebook, exactly.
         # Identical instances (a constant material) share one row.
-        pairs = np.concatenate([idx_below[pick], scale_below[pick].astype(np.float32)], axis=1)
+        idx_below, scale_below = _encode_parts(x, pick, parts, decoded_below, assign)
+        pairs = np.concatenate([idx_below, scale_below.astype(np.float32)], axis=1)
         pairs = np.unique(pairs.astype(np.float64), axis=0)
         rows_idx = pairs[:, :parts].astype(np.int32)
         rows_scale = pairs[:, parts:].astype(np.float32)
     else:
-        centres, _ = kmeans(sample, k, rng, s.iterations, n_pick, cancel, assign)
+        if not isinstance(x, FactoredRows) and len(pick) * x.shape[1] <= SAMPLE_ELEMENTS:
+            sample = np.asarray(x[pick], dtype=np.float32)
+            sample *= norm[:, None]
+        else:
+            sample = scaled_rows(x, pick, norm)
+        centres, _ = kmeans(sample, k, rng, s.iterations, n_pick, cancel, assign, labels=False)
+        del sample
         parts_c = centres.reshape(len(centres) * parts, -1)
         ri, rs = assign(parts_c, decoded_below, True)
         rows_idx = ri.reshape(len(centres), parts).astype(np.int32)
@@ -389,9 +541,23 @@ def _level(x, parts, decoded_below, idx_below, scale_below, k, s, rng, cancel, a
     cancel()
     decoded = decoded_below[rows_idx] * rows_scale[..., None]
     decoded = decoded.reshape(len(rows_idx), -1).astype(np.float32)
-    idx, scale = assign(x, decoded, True)
-    del n
-    return rows_idx, rows_scale, decoded, idx, scale
+    return rows_idx, rows_scale, decoded
+
+
+def _encode_parts(x, rows, parts, decoded_below, assign):
+    """Rows ``rows`` of ``x`` (N, parts·D) encoded part by part on ``decoded_below``
+    (K, D): (indices (len(rows), parts) int64, least-squares scales float64), a block of
+    rows at a time."""
+    d = x.shape[1] // parts
+    idx = np.empty((len(rows), parts), dtype=np.int64)
+    scale = np.empty((len(rows), parts), dtype=np.float64)
+    step = row_block(x.shape[1])
+    for first in range(0, len(rows), step):
+        block = np.asarray(x[rows[first : first + step]], dtype=np.float32).reshape(-1, d)
+        i, sc = assign(block, decoded_below, True)
+        idx[first : first + step] = i.reshape(-1, parts)
+        scale[first : first + step] = sc.reshape(-1, parts)
+    return idx, scale
 
 
 def _split_entries(entries, s: MLVQSettings, rng, cancel, assign: Assign) -> dict[str, np.ndarray]:
