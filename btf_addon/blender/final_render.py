@@ -3,7 +3,9 @@
 With OpenCL (the device chosen in the preferences, else the best one): the ray-traced final
 render in the mode the render settings choose — Virtual Lights (exactly the viewport's N lights,
 deterministic) or Sampled (path tracing, shown pass by pass) — with Blender's lights, shadow
-rays where the scene can have shadows, and Combined, Depth, Normal and UV passes. Without a
+rays where the scene can have shadows, and Combined, Depth, Normal and UV passes, for every
+view Blender asks for (Output › Stereoscopy: each eye from its own camera, as Blender places
+it). Without a
 usable OpenCL device the render says so and falls back to the GLSL drawer (no shadows) in an
 offscreen buffer; a kernel that fails to compile is an error, never a fallback.
 
