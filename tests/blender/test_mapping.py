@@ -154,7 +154,9 @@ def test_mapping_panel_does_not_reload_a_broken_source_on_every_redraw(
     materials = extension_submodule("btf_addon.blender.export.materials")
     calls = []
     real = materials.load_btf
-    monkeypatch.setattr(materials, "load_btf", lambda path: calls.append(path) or real(path))
+    monkeypatch.setattr(
+        materials, "load_btf", lambda path, **kw: calls.append(path) or real(path, **kw)
+    )
     first = module.stated_size(material.btf)
     again = module.stated_size(material.btf)
     assert first[0] is None and "source not readable" in first[1], first
