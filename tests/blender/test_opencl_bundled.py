@@ -42,6 +42,15 @@ scene.render.resolution_x, scene.render.resolution_y = 24, 16
 scene.render.resolution_percentage = 100
 scene.btf_render.lights_total = 4
 bpy.ops.mesh.primitive_cube_add()
+# A dark cube against a bright World: contrast whichever path draws it. (Lit by the startup
+# file's grey World, the cube's visible face came out 0.04 against the World's 0.05: within 0.04
+# of each other after the view transform, although correctly rendered.)
+scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+dark = bpy.data.materials.new("Dark")
+dark.diffuse_color = (0.02, 0.02, 0.02, 1.0)  # what a material without nodes renders with
+if dark.node_tree is not None:  # Blender 5 gives a new material its Principled BSDF
+    dark.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = dark.diffuse_color
+bpy.context.object.data.materials.append(dark)
 cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
 scene.collection.objects.link(cam)
 cam.location = (0.0, -6.0, 0.0)
