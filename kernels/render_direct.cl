@@ -242,6 +242,16 @@ inline float env_pdf(__global const float *row_pdf, __global const float *col_pd
   return row_pdf[row] * col_pdf[row * w + col] * w * h / (2.0f * M_PI_F * M_PI_F * sin_t);
 }
 
+/* A path's indirect light (everything after its first bounce) scaled so that no channel exceeds
+ * `limit` (Cycles' Clamp Indirect: limit 0 is off). Bright, rare paths (a small light source
+ * seen through a glossy bounce) otherwise stay as fireflies for thousands of samples; the
+ * clamp trades them for a bias, measured in docs/accuracy.md. */
+inline float3 clamp_indirect(float3 light, float limit)
+{
+  float peak = fmax(light.x, fmax(light.y, light.z));
+  return limit > 0.0f && peak > limit ? light * (limit / peak) : light;
+}
+
 /* The Sobol dimension of the film's 2D point: far beyond any path's own decisions. */
 #define FILM_DIMENSION 0xFFFFu
 
@@ -258,9 +268,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *col_cdf, __global const float *row_pdf,
                              __global const float *col_pdf, const int first_sample,
                              const int samples, const uint seed,
-                             const int max_bounces, const int filtered,
-                             __global const float *filter_table, const int transparent,
-                             __global float *combined)
+                             const int max_bounces, const float indirect_limit,
+                             const int filtered, __global const float *filter_table,
+                             const int transparent, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
   int y = row0 + yr;
@@ -310,7 +320,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     }
     hits++;
     float3 throughput = (float3)(1.0f);
+    float3 indirect = (float3)(0.0f); /* light after the first bounce, clamped at the end */
     for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
+      float3 *light = bounce == 0 ? &sum : &indirect;
       __global const float *I = ints + material_offsets[2 * cur.material];
       __global const float *F = floats + material_offsets[2 * cur.material + 1];
       float exposure = cur.exposure;
@@ -343,13 +355,14 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         if (visible) {
           float3 value = btf_mapped(I, F, &cur, wi);
           float weight = pdf_light * pdf_light / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
-          sum += throughput * exposure * value * vload3(0, env + 4 * pixel) * env_params.y *
-                 (weight / pdf_light);
+          *light += throughput * exposure * value * vload3(0, env + 4 * pixel) *
+                    env_params.y * (weight / pdf_light);
         }
       }
 #endif
-      sum += throughput * exposure * blender_lights(&cur, I, F, scene_lights, scene_light_count,
-                                                     eps, bounds, links, corners, &smp);
+      *light += throughput * exposure * blender_lights(&cur, I, F, scene_lights,
+                                                        scene_light_count, eps, bounds, links,
+                                                        corners, &smp);
       /* 2. A direction from the BTF's sampling (include/btf_sampling.h): it either reaches the
        * World (MIS-weighted against the environment sample above) or, within the bounce
        * limit, continues the path. */
@@ -371,7 +384,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
 #if HAS_ENVIRONMENT
         float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
         float weight = pdf_bsdf * pdf_bsdf / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
-        sum += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
+        *light += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
 #endif
         break;
       }
@@ -389,6 +402,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         throughput /= keep;
       }
     }
+    sum += clamp_indirect(indirect, indirect_limit);
   }
   float alpha = transparent ? (float)hits / (float)max(samples, 1) : 1.0f;
   vstore4((float4)(sum / (float)max(samples, 1), alpha), px, combined);

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 from bpy.types import PropertyGroup
 
 from ..render.settings import FinalMode, Lighting
@@ -100,6 +100,15 @@ class BTFRenderSettings(PropertyGroup):
         description="Sampled final render: continue paths from measured BTFs by a table of "
         "their own values (built once per material, about a second) instead of cosine "
         "sampling alone; less noise on glossy materials, about 10 % more time per sample",
+    )
+    clamp_indirect: FloatProperty(
+        name="Clamp Indirect",
+        default=10.0,
+        min=0.0,
+        soft_max=100.0,
+        description="Sampled final render: scale a sample's indirect light down so that no "
+        "channel exceeds this value, which removes fireflies at the cost of a little energy "
+        "(as Cycles' Clamp Indirect); 0 turns it off",
     )
     fixed_launch_split: BoolProperty(
         name="Fixed Launch Split",

@@ -23,8 +23,9 @@ from bpy.app.handlers import persistent
 from bpy.props import IntProperty
 
 #: The settings version this code writes. 0: files saved before versioning (issue 14); 2: the
-#: VR session and the XTAL bridge share their settings' defaults (vr/headset_settings.py).
-SETTINGS_VERSION = 2
+#: VR session and the XTAL bridge share their settings' defaults (vr/headset_settings.py); 3: the
+#: Sampled F12 clamps indirect light by default (issue 33).
+SETTINGS_VERSION = 3
 
 
 class Upgrade(NamedTuple):
@@ -47,6 +48,8 @@ UPGRADES = (
     # Now 0, "the headset's display period", as the bridge's; the VR session holds 11 ms for it
     # all the same (it is never told the period), so this keeps what the panel showed.
     Upgrade(2, "scene", "btf_vr", "frame_budget_ms", 11.0),
+    # Files made before the clamp render unbiased, as they did.
+    Upgrade(3, "scene", "btf_render", "clamp_indirect", 0.0),
 )
 
 

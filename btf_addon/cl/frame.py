@@ -35,6 +35,7 @@ def render_frame(
     # None: the environment's choice (BTF_FIXED_LAUNCHES), as on the command line.
     renderer.fixed_launch_split = settings.fixed_launch_split or None
     renderer.importance_sampling = settings.btf_importance_sampling
+    renderer.clamp_indirect = settings.clamp_indirect
     renderer.transparent = transparent
     if not settings.sampled:
         return renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)

@@ -93,6 +93,10 @@ class CLRenderer:
         #: The Sampled mode samples measured BTFs by their tables (core/sampling/btf_importance.py,
         #: built on the first Sampled render); False: cosine sampling, as before them.
         self.importance_sampling = True
+        #: The Sampled mode's Clamp Indirect (kernels/render_direct.cl clamp_indirect): a path's
+        #: light after its first bounce scaled to at most this per channel; 0: off (unbiased).
+        #: F12 sets the scene's (render_frame); a renderer used on its own stays unbiased.
+        self.clamp_indirect = 0.0
         self._packed_importance = False
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, program_defines(self.features)
@@ -375,7 +379,8 @@ class CLRenderer:
         ``fixed_launch_split`` makes frames bit-identical between runs. With a film
         filter each sample's camera ray goes through its own point of the filter's footprint,
         drawn with the filter's distribution (the mean converges to the filtered image).
-        Measured BTFs are sampled by their tables unless ``importance_sampling`` is False."""
+        Measured BTFs are sampled by their tables unless ``importance_sampling`` is False;
+        a path's indirect light is clamped at ``clamp_indirect`` when it is above 0."""
         w, h = self.width, self.height
         want = self.importance_sampling and any(
             sampled_by_table(m.btf) for m in self.scene.materials
@@ -407,6 +412,7 @@ class CLRenderer:
                 np.int32(count),
                 np.uint32(seed),
                 np.int32(bounces),
+                np.float32(max(self.clamp_indirect, 0.0)),
                 *film_args,
                 *buffers,
             )

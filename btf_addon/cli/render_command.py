@@ -105,6 +105,13 @@ def add_parser(sub) -> None:
         help="indirect reflections of the Sampled final mode",
     )
     p.add_argument(
+        "--clamp-indirect",
+        type=_non_negative,
+        metavar="X",
+        help="Sampled mode: a sample's indirect light scaled to at most X per channel (removes "
+        "fireflies, a little bias; 0: off)",
+    )
+    p.add_argument(
         "--seed", type=_at_least(0), metavar="N", help="randomisation of lights and samples' points"
     )
     p.add_argument(
@@ -167,6 +174,17 @@ def _resolution(text: str) -> tuple[int, int]:
     if not (1 <= w <= 16384 and 1 <= h <= 16384):
         raise argparse.ArgumentTypeError(f"{w}x{h} is outside 1…16384")
     return w, h
+
+
+def _non_negative(text: str) -> float:
+    """A finite number ≥ 0, refused by argparse (exit 2) before Blender starts."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not (0.0 <= value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number of at least 0, got {text}")
+    return value
 
 
 def _at_least(low: int):
@@ -253,6 +271,7 @@ def overrides(args) -> dict:
         "lights_total": args.lights,
         "samples": args.samples,
         "max_bounces": args.bounces,
+        "clamp_indirect": args.clamp_indirect,
         "seed": args.seed,
         "fixed_launch_split": args.fixed_launch_split,
         "btf_importance_sampling": args.btf_importance_sampling,
@@ -308,6 +327,7 @@ F12_ONLY = {
     "final_mode": "--final-mode",
     "samples": "--samples",
     "bounces": "--bounces",
+    "clamp_indirect": "--clamp-indirect",
     "device": "--device",
     "btf_importance_sampling": "--no-btf-importance",
 }

@@ -54,6 +54,10 @@ class RenderSettings:
     # limit,
     # less noise on sharp lobes, ≈ 10 % more time per sample (docs/accuracy.md).
     btf_importance_sampling: bool = True
+    # The Sampled mode's indirect light per sample is scaled so that no channel exceeds this
+    # (Cycles' Clamp Indirect, whose default it shares; 0: off, unbiased): fireflies become a
+    # small, stated bias (docs/accuracy.md).
+    clamp_indirect: float = 10.0
     pixel_filter: str = "BLACKMAN_HARRIS"  # scene.cycles.pixel_filter_type where Cycles is on
     filter_width: float = 1.5  # pixels, scene.cycles.filter_width
 

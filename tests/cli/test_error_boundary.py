@@ -148,6 +148,9 @@ def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
         (["--samples", "0"], "--samples: must be at least 1"),
         (["--bounces", "-1"], "--bounces: must be at least 0"),
         (["--seed", "-3"], "--seed: must be at least 0"),
+        (["--clamp-indirect", "-1"], "--clamp-indirect: must be a finite number of at least 0"),
+        (["--clamp-indirect", "inf"], "--clamp-indirect: must be a finite number of at least 0"),
+        (["--clamp-indirect", "x"], "--clamp-indirect: must be a number"),
     ],
 )
 def test_render_flags_out_of_range_are_refused_before_blender(tmp_path, args, message):

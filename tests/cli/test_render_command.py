@@ -139,3 +139,16 @@ def test_sampled_final_mode_renders_by_sampling(tmp_path):
     )
     assert "sampled, 8 samples per pixel, 4 bounces" in proc.stdout
     assert np.all(np.isfinite(read_exr(out)))
+
+
+def test_clamp_indirect_flag_reaches_f12(tmp_path):
+    """`--clamp-indirect X` is the scene's Clamp Indirect for this render: a limit far below the
+    demo's indirect light (Suzanne and the sphere light each other) darkens the frame against
+    the unclamped render of the same samples; everything else is the same render."""
+    means = {}
+    for limit in ("0", "0.001"):
+        out = tmp_path / f"clamp-{limit}.exr"
+        run_cli("render", "--demo", "--resolution", "64x36", "--samples", "8",
+                "--clamp-indirect", limit, "-o", out)  # fmt: skip
+        means[limit] = float(read_exr(out)[..., :3].mean())
+    assert means["0.001"] < 0.995 * means["0"], means

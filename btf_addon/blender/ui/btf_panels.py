@@ -83,6 +83,7 @@ class BTF_PT_render_settings(Panel):
         col.active = values.final_mode is FinalMode.SAMPLED
         col.prop(settings, "samples")
         col.prop(settings, "max_bounces")
+        col.prop(settings, "clamp_indirect")
         col.prop(settings, "btf_importance_sampling")
         layout.prop(settings, "fixed_launch_split")
         draw_device(layout)

@@ -99,6 +99,15 @@ KNOBS: tuple[Knob, ...] = (
     # Under the headlight nothing is laddered: the reference samples the World, which the
     # headlight does not show.
     Knob("texel_filter", "Texel Filter", ("NEAREST", "LINEAR"), _environment, Role.CLASS),
+    # Clamp Indirect: what the clamp's bias costs against the unclamped reference, only where
+    # there is indirect light to clamp.
+    Knob(
+        "clamp_indirect",
+        "Clamp Indirect",
+        (0.0, 10.0),
+        lambda s: s.sampled and s.max_bounces > 0,
+        Role.CLASS,
+    ),
 )
 
 _FIELDS = {f.name for f in fields(RenderSettings)}
@@ -214,6 +223,7 @@ def reference_settings(base: RenderSettings, samples: int = 1024, bounces: int =
         use_antialiasing=True,  # the true image is the film-filtered one
         samples=samples,
         max_bounces=max(bounces, base.max_bounces),
+        clamp_indirect=0.0,  # unbiased: a clamp's bias is error
         seed=base.seed + 7919,
     )
 
@@ -648,6 +658,7 @@ _WORDS: dict[str, Callable[[Any], str]] = {
     "use_antialiasing": lambda v: "anti-aliased" if v else "no anti-aliasing",
     "aa_samples": lambda v: f"{v} subpixel{'s' if v != 1 else ''}",
     "texel_filter": lambda v: f"{str(v).title()} texels",
+    "clamp_indirect": lambda v: f"indirect clamped at {v:g}" if v else "no clamp",
 }
 
 
