@@ -269,7 +269,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *col_pdf, const int first_sample,
                              const int samples, const uint seed,
                              const int max_bounces, const float indirect_limit,
-                             const int filtered, __global const float *filter_table,
+                             const int camera_split, const int filtered,
+                             __global const float *filter_table,
                              const int transparent, __global float *combined)
 {
   int x = get_global_id(0), yr = get_global_id(1);
@@ -280,9 +281,14 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   int px = yr * width + x;
   float3 o, d;
   float t, bu, bv;
-  /* Anti-aliasing (filtered): each sample's camera ray through its own point of the
-   * pixel filter's footprint (include/btf_filter.h), drawn from a Sobol dimension of its own,
-   * so the path's other decisions are those of the pixel-centre render. */
+  /* Anti-aliasing (filtered): a camera ray through its own point of the pixel filter's
+   * footprint (include/btf_filter.h), drawn from a Sobol dimension of its own, so the path's
+   * other decisions are those of the pixel-centre render. Samples index, index + 1, … of one
+   * group of camera_split share the group's camera ray and shading point (its point is that
+   * of Sobol index index / camera_split): the camera ray and the surface it meets cost more
+   * than a diffuse sample's lighting, and within a pixel's footprint the light varies more
+   * than the surface, so the saved time buys more samples than the shared points cost
+   * (docs/accuracy.md, "Samples per camera ray"). Every sample stays an unbiased estimate. */
   int tri = filtered ? -1
                      : primary_hit(x, y, width, height, world_from_clip, tri_count, bounds,
                                    links, corners, &o, &d, &t, &bu, &bv);
@@ -303,21 +309,24 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   for (int si = 0; si < samples; si++) {
     uint index = (uint)(first_sample + si); /* a sample's points depend only on its index */
     Sampler smp = {pixel_seed, index, 0u, pcg_hash(pixel_seed + index)};
-    SurfacePoint cur = sp;
-    if (filtered) {
-      Sampler film = {pixel_seed, index, FILM_DIMENSION, 0u};
+    /* A launch may start inside a group: its first sample traces the group's ray again. */
+    if (filtered && (si == 0 || index % (uint)camera_split == 0u)) {
+      Sampler film = {pixel_seed, index / (uint)camera_split, FILM_DIMENSION, 0u};
       float2 raster = (float2)(x + 0.5f, y + 0.5f) +
                       filter_sample(filter_table, next_2d(&film));
       tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
                            corners, &o, &d, &t, &bu, &bv);
-      if (tri < 0) {
-        if (!transparent) {
-          sum += env_lookup(env, env_w, env_h, env_params, d);
-        }
-        continue;
+      if (tri >= 0) {
+        sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
       }
-      cur = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
     }
+    if (filtered && tri < 0) {
+      if (!transparent) {
+        sum += env_lookup(env, env_w, env_h, env_params, d);
+      }
+      continue;
+    }
+    SurfacePoint cur = sp;
     hits++;
     float3 throughput = (float3)(1.0f);
     float3 indirect = (float3)(0.0f); /* light after the first bounce, clamped at the end */

@@ -102,13 +102,14 @@ def sphere_on_ground(bpy, tmp_path, material_source, size=(96, 64), segments=48,
     return scene
 
 
-def forest_world(bpy, name: str = "Forest"):
-    """A World lit by Blender's bundled forest.exr through an Environment Texture node."""
+def forest_world(bpy, name: str = "Forest", image: str = "forest"):
+    """A World lit by one of Blender's bundled studiolights (forest.exr unless ``image`` names
+    another) through an Environment Texture node."""
     from helpers import studiolights_dir
 
     world = with_nodes(bpy.data.worlds.new(name))
     texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    texture.image = bpy.data.images.load(str(studiolights_dir() / "forest.exr"))
+    texture.image = bpy.data.images.load(str(studiolights_dir() / f"{image}.exr"))
     world.node_tree.links.new(
         texture.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"]
     )

@@ -20,7 +20,7 @@ def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
     return float(np.sqrt(np.mean((image - reference) ** 2)) / np.sqrt(np.mean(reference**2)))
 
 
-def cycles_material(bpy, kind: str):
+def cycles_material(bpy, kind: str, roughness: float = 0.3):
     material = with_nodes(bpy.data.materials.new(kind))
     nodes, links = material.node_tree.nodes, material.node_tree.links
     for node in list(nodes):
@@ -32,7 +32,7 @@ def cycles_material(bpy, kind: str):
     else:
         bsdf = nodes.new("ShaderNodeBsdfGlossy")
         bsdf.distribution = "GGX"
-        bsdf.inputs["Roughness"].default_value = 0.3
+        bsdf.inputs["Roughness"].default_value = roughness
     bsdf.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
     links.new(bsdf.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
     return material
@@ -50,16 +50,17 @@ def principled_material(bpy, metallic: float):
     return material
 
 
-def build(bpy, tmp_path, kind: str, ground: bool):
+def build(bpy, tmp_path, kind: str, ground: bool, roughness: float = 0.3, world: str = "forest"):
+    """kind "glossy" is GGX of ``roughness``; ``world``: a bundled studiolight's name."""
     scene = bpy.context.scene
     if kind.startswith("principled"):
         material = principled_material(bpy, 1.0 if kind == "principled-metal" else 0.0)
     elif kind.endswith("-node"):  # the Cycles material alone: our engine reads its node
-        material = cycles_material(bpy, kind.removesuffix("-node"))
+        material = cycles_material(bpy, kind.removesuffix("-node"), roughness)
     else:
-        btf = LambertianBTF(0.8) if kind == "diffuse" else GGXBTF(0.8, 0.3)
+        btf = LambertianBTF(0.8) if kind == "diffuse" else GGXBTF(0.8, roughness)
         write_container(tmp_path / "m.btfm", btf)
-        material = cycles_material(bpy, kind)
+        material = cycles_material(bpy, kind, roughness)
         material.btf.enabled = True  # the same material carries both renderers' descriptions
         material.btf.source = str(tmp_path / "m.btfm")
     bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=64, ring_count=32)
@@ -73,7 +74,7 @@ def build(bpy, tmp_path, kind: str, ground: bool):
     scene.camera = cam
     cam.location = (0.0, -4.5, 1.5)
     cam.rotation_euler = (math.radians(75.0), 0.0, 0.0)
-    scene.world = forest_world(bpy)
+    scene.world = forest_world(bpy, image=world)
     scene.render.resolution_x, scene.render.resolution_y = SIZE
     scene.render.resolution_percentage = 100
     return scene

@@ -110,6 +110,16 @@ class BTFRenderSettings(PropertyGroup):
         "channel exceeds this value, which removes fireflies at the cost of a little energy "
         "(as Cycles' Clamp Indirect); 0 turns it off",
     )
+    samples_per_camera_ray: IntProperty(
+        name="Samples per Camera Ray",
+        default=4,
+        min=1,
+        max=16,
+        description="Sampled final render with anti-aliasing: this many consecutive samples "
+        "of a pixel share one camera ray through the pixel filter and light its surface "
+        "point each their own way; the same image in the end, reached in less time where "
+        "lighting is noisier than edges (1: a camera ray per sample, as Cycles)",
+    )
     fixed_launch_split: BoolProperty(
         name="Fixed Launch Split",
         default=False,

@@ -24,8 +24,9 @@ from bpy.props import IntProperty
 
 #: The settings version this code writes. 0: files saved before versioning (issue 14); 2: the
 #: VR session and the XTAL bridge share their settings' defaults (vr/headset_settings.py); 3: the
-#: Sampled F12 clamps indirect light by default (issue 33).
-SETTINGS_VERSION = 3
+#: Sampled F12 clamps indirect light by default (issue 33); 4: its samples share camera rays,
+#: 4 to a ray, by default (issue 33).
+SETTINGS_VERSION = 4
 
 
 class Upgrade(NamedTuple):
@@ -50,6 +51,8 @@ UPGRADES = (
     Upgrade(2, "scene", "btf_vr", "frame_budget_ms", 11.0),
     # Files made before the clamp render unbiased, as they did.
     Upgrade(3, "scene", "btf_render", "clamp_indirect", 0.0),
+    # ... and trace a camera ray per sample, as they did.
+    Upgrade(4, "scene", "btf_render", "samples_per_camera_ray", 1),
 )
 
 

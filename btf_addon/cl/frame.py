@@ -36,6 +36,7 @@ def render_frame(
     renderer.fixed_launch_split = settings.fixed_launch_split or None
     renderer.importance_sampling = settings.btf_importance_sampling
     renderer.clamp_indirect = settings.clamp_indirect
+    renderer.samples_per_camera_ray = settings.samples_per_camera_ray
     renderer.transparent = transparent
     if not settings.sampled:
         return renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)

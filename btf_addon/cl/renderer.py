@@ -97,6 +97,10 @@ class CLRenderer:
         #: light after its first bounce scaled to at most this per channel; 0: off (unbiased).
         #: F12 sets the scene's (render_frame); a renderer used on its own stays unbiased.
         self.clamp_indirect = 0.0
+        #: The Sampled mode's Samples per Camera Ray (kernels/render_direct.cl camera_split):
+        #: consecutive samples of a pixel sharing one filtered camera ray; 1: a ray each.
+        #: F12 sets the scene's (render_frame); a renderer used on its own keeps 1.
+        self.samples_per_camera_ray = 1
         self._packed_importance = False
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, program_defines(self.features)
@@ -380,7 +384,8 @@ class CLRenderer:
         filter each sample's camera ray goes through its own point of the filter's footprint,
         drawn with the filter's distribution (the mean converges to the filtered image).
         Measured BTFs are sampled by their tables unless ``importance_sampling`` is False;
-        a path's indirect light is clamped at ``clamp_indirect`` when it is above 0."""
+        a path's indirect light is clamped at ``clamp_indirect`` when it is above 0; with a
+        film, ``samples_per_camera_ray`` consecutive samples share a camera ray."""
         w, h = self.width, self.height
         want = self.importance_sampling and any(
             sampled_by_table(m.btf) for m in self.scene.materials
@@ -413,6 +418,7 @@ class CLRenderer:
                 np.uint32(seed),
                 np.int32(bounces),
                 np.float32(max(self.clamp_indirect, 0.0)),
+                np.int32(max(int(self.samples_per_camera_ray), 1)),
                 *film_args,
                 *buffers,
             )

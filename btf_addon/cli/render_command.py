@@ -99,6 +99,13 @@ def add_parser(sub) -> None:
         help="samples per pixel of the Sampled final mode",
     )
     p.add_argument(
+        "--samples-per-camera-ray",
+        type=_at_least(1, 16),
+        metavar="N",
+        help="Sampled mode with anti-aliasing: N consecutive samples of a pixel share one "
+        "camera ray (1: a ray each)",
+    )
+    p.add_argument(
         "--bounces",
         type=_at_least(0),
         metavar="N",
@@ -187,9 +194,9 @@ def _non_negative(text: str) -> float:
     return value
 
 
-def _at_least(low: int):
-    """An integer flag with a least value, refused by argparse (exit 2) before Blender starts:
-    Blender would clamp it silently (a black image for --samples -1)."""
+def _at_least(low: int, high: int | None = None):
+    """An integer flag with a least (and maybe a greatest) value, refused by argparse (exit 2)
+    before Blender starts: Blender would clamp it silently (a black image for --samples -1)."""
 
     def parse(text: str) -> int:
         try:
@@ -198,6 +205,8 @@ def _at_least(low: int):
             raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
         if value < low:
             raise argparse.ArgumentTypeError(f"must be at least {low}, got {value}")
+        if high is not None and value > high:
+            raise argparse.ArgumentTypeError(f"must be at most {high}, got {value}")
         return value
 
     return parse
@@ -272,6 +281,7 @@ def overrides(args) -> dict:
         "samples": args.samples,
         "max_bounces": args.bounces,
         "clamp_indirect": args.clamp_indirect,
+        "samples_per_camera_ray": args.samples_per_camera_ray,
         "seed": args.seed,
         "fixed_launch_split": args.fixed_launch_split,
         "btf_importance_sampling": args.btf_importance_sampling,
@@ -328,6 +338,7 @@ F12_ONLY = {
     "samples": "--samples",
     "bounces": "--bounces",
     "clamp_indirect": "--clamp-indirect",
+    "samples_per_camera_ray": "--samples-per-camera-ray",
     "device": "--device",
     "btf_importance_sampling": "--no-btf-importance",
 }

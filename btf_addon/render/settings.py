@@ -58,6 +58,10 @@ class RenderSettings:
     # (Cycles' Clamp Indirect, whose default it shares; 0: off, unbiased): fireflies become a
     # small, stated bias (docs/accuracy.md).
     clamp_indirect: float = 10.0
+    # The Sampled mode's consecutive samples of a pixel that share one camera ray through the
+    # pixel filter (1: a ray each, as files saved before it): the same image in the limit,
+    # reached sooner (docs/accuracy.md, "Samples per camera ray").
+    samples_per_camera_ray: int = 4
     pixel_filter: str = "BLACKMAN_HARRIS"  # scene.cycles.pixel_filter_type where Cycles is on
     filter_width: float = 1.5  # pixels, scene.cycles.filter_width
 

@@ -152,3 +152,16 @@ def test_clamp_indirect_flag_reaches_f12(tmp_path):
                 "--clamp-indirect", limit, "-o", out)  # fmt: skip
         means[limit] = float(read_exr(out)[..., :3].mean())
     assert means["0.001"] < 0.995 * means["0"], means
+
+
+def test_samples_per_camera_ray_flag_reaches_f12(tmp_path):
+    """`--samples-per-camera-ray N` is the scene's setting for this render: the same seed with 1
+    and with 8 gives different images (every pixel's 8 samples on one camera ray against 8
+    rays); what sharing means is checked in tests/kernels/test_samples_per_camera_ray.py."""
+    images = {}
+    for split in ("1", "8"):
+        out = tmp_path / f"split-{split}.exr"
+        run_cli("render", "--demo", "--resolution", "64x36", "--samples", "8",
+                "--samples-per-camera-ray", split, "-o", out)  # fmt: skip
+        images[split] = read_exr(out)[..., :3]
+    assert not np.array_equal(images["1"], images["8"])

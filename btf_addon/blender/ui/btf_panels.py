@@ -82,6 +82,9 @@ class BTF_PT_render_settings(Panel):
         col = layout.column()
         col.active = values.final_mode is FinalMode.SAMPLED
         col.prop(settings, "samples")
+        row = col.row()
+        row.active = values.use_antialiasing
+        row.prop(settings, "samples_per_camera_ray")
         col.prop(settings, "max_bounces")
         col.prop(settings, "clamp_indirect")
         col.prop(settings, "btf_importance_sampling")

@@ -108,6 +108,14 @@ KNOBS: tuple[Knob, ...] = (
         lambda s: s.sampled and s.max_bounces > 0,
         Role.CLASS,
     ),
+    # Samples per camera ray: only where camera rays go through the pixel filter.
+    Knob(
+        "samples_per_camera_ray",
+        "Samples per Camera Ray",
+        (1, 4),
+        lambda s: s.sampled and s.use_antialiasing,
+        Role.CLASS,
+    ),
 )
 
 _FIELDS = {f.name for f in fields(RenderSettings)}
@@ -659,6 +667,7 @@ _WORDS: dict[str, Callable[[Any], str]] = {
     "aa_samples": lambda v: f"{v} subpixel{'s' if v != 1 else ''}",
     "texel_filter": lambda v: f"{str(v).title()} texels",
     "clamp_indirect": lambda v: f"indirect clamped at {v:g}" if v else "no clamp",
+    "samples_per_camera_ray": lambda v: f"{v} sample{'s' if v != 1 else ''} per camera ray",
 }
 
 

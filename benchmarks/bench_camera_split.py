@@ -1,0 +1,108 @@
+"""Samples per Camera Ray: error against time, side by side in one process.
+
+Scenes of benchmarks/bench_vs_cycles.py at 48×36 (the demo at 64×48): the lone smooth sphere,
+Lambertian 0.8 under forest.exr; the lone sphere, GGX roughness 0.2 under city.exr; the
+Lambertian sphere on a ground (2 bounces); the demo (BTFs, 4 bounces). One CLRenderer per
+scene (the program compiled before timing), Blender's default film filter, Clamp Indirect off.
+Every split k renders the same sample counts with 3 seeds; time is the median, error the mean
+relative RMSE against a reference: Cycles at 16384 samples for the spheres (a renderer nobody
+here wrote), ours at 16384 samples with a camera ray per sample and another seed for the demo
+(Cycles cannot read BTFs). "Gain at equal error" is (t·e²) at k = 1 over (t·e²) at k: Monte
+Carlo error falls as 1/√time, so it is how much sooner k reaches the error k = 1 reaches.
+
+    python benchmarks/bench_camera_split.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from common import table
+
+SPLITS = (1, 2, 4, 8, 16)
+SAMPLES = (64, 256, 1024)
+SEEDS = 3
+REFERENCE_SAMPLES = 16384
+#: name -> (cycles_scenes kind, ground, GGX roughness, World studiolight, bounces)
+SCENES = {
+    "sphere, Lambertian 0.8, forest": ("diffuse", False, 0.3, "forest", 0),
+    "sphere, GGX 0.2, city": ("glossy", False, 0.2, "city", 0),
+    "sphere on ground, 2 bounces": ("diffuse", True, 0.3, "forest", 2),
+    "demo (BTFs, 4 bounces)": ("demo", False, 0.0, "forest", 4),
+}
+
+
+def _scene(bpy, name: str, tmp: Path):
+    """(exported scene, size, reference image)."""
+    import blender_helpers
+    from cycles_scenes import SIZE, build, cycles_reference
+
+    from btf_addon.blender.export import export_scene
+
+    blender_helpers.extension_submodule = importlib.import_module  # the checkout's package
+    kind, ground, roughness, world, bounces = SCENES[name]
+    if kind == "demo":
+        from btf_addon.blender.demo import build_demo_scene
+
+        size = (64, 48)
+        build_demo_scene(tmp / "demo", resolution=size)
+        return export_scene(bpy.context.evaluated_depsgraph_get(), *size), size, None
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    scene = build(bpy, tmp, kind, ground=ground, roughness=roughness, world=world)
+    exported = export_scene(bpy.context.evaluated_depsgraph_get(), *SIZE)
+    reference = cycles_reference(bpy, scene, tmp, REFERENCE_SAMPLES, bounces, seed=101)
+    return exported, SIZE, reference[..., :3]
+
+
+def main(quick: bool = False) -> str:
+    import bpy
+    from cycles_scenes import relative_rmse
+
+    import btf_addon
+    from btf_addon.cl.context import create_context
+    from btf_addon.cl.renderer import CLRenderer
+
+    samples = SAMPLES[:2] if quick else SAMPLES
+    btf_addon.register()
+    tmp = Path(tempfile.mkdtemp(prefix="btf-bench-split-"))
+    rows = []
+    try:
+        ctx = create_context()
+        for name, (*_, bounces) in SCENES.items():
+            exported, size, reference = _scene(bpy, name, tmp)
+            renderer = CLRenderer(exported, *size, ctx)
+            renderer.render_sampled(1)  # compile and build the tables outside the timing
+            if reference is None:  # the demo: our own, a camera ray per sample
+                reference = renderer.render_sampled(REFERENCE_SAMPLES, 101, None, bounces)
+                reference = reference[..., :3]
+            for n in samples:
+                base = None
+                for k in SPLITS:
+                    renderer.samples_per_camera_ray = k
+                    seconds, errors = [], []
+                    for seed in range(SEEDS):
+                        t0 = time.perf_counter()
+                        image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
+                        seconds.append(time.perf_counter() - t0)
+                        errors.append(relative_rmse(image, reference))
+                    t, e = float(np.median(seconds)), float(np.mean(errors))
+                    base = base or t * e * e
+                    gain = round(base / (t * e * e), 2)
+                    rows.append([name, n, k, round(t, 3), round(e, 4), gain])
+    finally:
+        btf_addon.unregister()
+        shutil.rmtree(tmp, ignore_errors=True)
+    header = ["scene", "samples", "per camera ray", "s", "relative RMSE", "gain at equal error"]
+    return table(header, rows)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="64 and 256 samples only")
+    print(main(parser.parse_args().quick))
