@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 from common import ROOT, table
+from cycles_scenes import relative_rmse
 
 TARGETS = (0.05, 0.02, 0.01)
 SAMPLES = (16, 64, 256, 1024)
@@ -63,10 +64,6 @@ def time_to_error(points: list[tuple[float, float]], target: float) -> float:
             a = (math.log(e0) - math.log(target)) / (math.log(e0) - math.log(e1))
             return math.exp(math.log(t0) + a * (math.log(t1) - math.log(t0)))
     return float("nan")
-
-
-def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
-    return float(np.sqrt(np.mean((image - reference) ** 2)) / np.sqrt(np.mean(reference**2)))
 
 
 # --- one F12 in this process (the worker) -------------------------------------------------
