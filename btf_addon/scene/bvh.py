@@ -77,14 +77,20 @@ def _half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 def _sah_left(c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | None:
     """Which of a node's triangles (centroids c, boxes lo/hi) go left: the split between
     centroid bins that minimises area(left) · count(left) + area(right) · count(right) over
-    the three axes; None when every centroid falls in one bin (take the median)."""
+    the three axes; None when no axis can be binned or no split has a finite cost (centroids
+    that coincide or lie a denormal apart: take the median)."""
+    with np.errstate(over="ignore", invalid="ignore"):  # non-finite costs are refused below
+        return _cheapest_split(c, lo, hi)
+
+
+def _cheapest_split(c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | None:
     best_cost, best = np.inf, None
     c_lo, c_hi = c.min(axis=0), c.max(axis=0)
     for axis in range(3):
-        extent = c_hi[axis] - c_lo[axis]
-        if not extent > 0.0:
+        scale = SAH_BINS / (c_hi[axis] - c_lo[axis]) if c_hi[axis] > c_lo[axis] else np.inf
+        if not np.isfinite(scale):
             continue
-        scaled = (c[:, axis] - c_lo[axis]) * (SAH_BINS / extent)
+        scaled = (c[:, axis] - c_lo[axis]) * scale
         bins = np.minimum(scaled, SAH_BINS - 1).astype(np.uint8)  # uint8: a radix sort below
         count = np.bincount(bins, minlength=SAH_BINS)
         # Each bin's box: the triangles sorted by bin, reduced per run (ufunc.at is 5x slower).
@@ -102,8 +108,7 @@ def _sah_left(c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | Non
         right_area = _half_area(right_lo, right_hi)
         n_left = np.cumsum(count)[:-1]
         n_right = len(c) - n_left
-        with np.errstate(invalid="ignore"):  # empty sides: inf · 0
-            cost = left_area[:-1] * n_left + right_area[1:] * n_right
+        cost = left_area[:-1] * n_left + right_area[1:] * n_right  # empty sides: inf · 0
         cost[(n_left == 0) | (n_right == 0) | ~np.isfinite(cost)] = np.inf
         k = int(np.argmin(cost))
         if cost[k] < best_cost:

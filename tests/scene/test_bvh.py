@@ -3,6 +3,8 @@ through it equal to testing every triangle (an independent brute force in numpy)
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -132,3 +134,24 @@ def test_degenerate_and_single_triangles():
     _check_layout(tree, flat)
     one = build_bvh(np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], dtype=np.float64))
     assert one.links.tolist() == [[0, 1]] and one.order.tolist() == [0]
+
+
+@pytest.mark.parametrize(
+    "extreme",
+    ["denormal extent", "huge coordinates"],
+)
+def test_extreme_coordinates_build_without_warnings(extreme):
+    """Centroids a denormal apart (the bin scale overflows: the heuristic steps aside for the
+    median) and coordinates near float32's limit (the largest the flattened boxes store):
+    built without a warning."""
+    triangles = np.zeros((100, 3, 3))
+    if extreme == "denormal extent":
+        triangles[::2, :, 0] = 5e-324
+    else:
+        triangles[:, :, 0] = np.linspace(0.0, 3e38, 100)[:, None]
+        triangles[:, 1, 1] = 3e38
+        triangles = triangles.astype(np.float32).astype(np.float64)  # as exported: float32
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tree = build_bvh(triangles)
+    _check_layout(tree, triangles)
