@@ -16,7 +16,6 @@ Carlo error falls as 1/√time, so it is how much sooner k reaches the error k =
 from __future__ import annotations
 
 import argparse
-import importlib
 import shutil
 import tempfile
 import time
@@ -29,35 +28,31 @@ SPLITS = (1, 2, 4, 8, 16)
 SAMPLES = (64, 256, 1024)
 SEEDS = 3
 REFERENCE_SAMPLES = 16384
-#: name -> (cycles_scenes kind, ground, GGX roughness, World studiolight, bounces)
+#: name -> (bench_vs_cycles.build_scene's kind, GGX roughness, World, frame size, ground),
+#: and the bounces rendered
 SCENES = {
-    "sphere, Lambertian 0.8, forest": ("diffuse", False, 0.3, "forest", 0),
-    "sphere, GGX 0.2, city": ("glossy", False, 0.2, "city", 0),
-    "sphere on ground, 2 bounces": ("diffuse", True, 0.3, "forest", 2),
-    "demo (BTFs, 4 bounces)": ("demo", False, 0.0, "forest", 4),
+    "sphere, Lambertian 0.8, forest": (("diffuse", 0.3, "forest", (48, 36), False), 0),
+    "sphere, GGX 0.2, city": (("glossy", 0.2, "city", (48, 36), False), 0),
+    "sphere on ground, 2 bounces": (("diffuse", 0.3, "forest", (48, 36), True), 2),
+    "demo (BTFs, 4 bounces)": (("demo", 0.0, "forest", (64, 48), False), 4),
 }
 
 
 def _scene(bpy, name: str, tmp: Path):
-    """(exported scene, size, reference image)."""
-    import blender_helpers
-    from cycles_scenes import SIZE, build, cycles_reference
+    """(exported scene, size, reference image; None for the demo, which Cycles cannot read)."""
+    from bench_vs_cycles import build_scene
+    from cycles_scenes import cycles_reference
 
     from btf_addon.blender.export import export_scene
 
-    blender_helpers.extension_submodule = importlib.import_module  # the checkout's package
-    kind, ground, roughness, world, bounces = SCENES[name]
-    if kind == "demo":
-        from btf_addon.blender.demo import build_demo_scene
-
-        size = (64, 48)
-        build_demo_scene(tmp / "demo", resolution=size)
-        return export_scene(bpy.context.evaluated_depsgraph_get(), *size), size, None
-    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
-    scene = build(bpy, tmp, kind, ground=ground, roughness=roughness, world=world)
-    exported = export_scene(bpy.context.evaluated_depsgraph_get(), *SIZE)
+    spec, bounces = SCENES[name]
+    scene = build_scene(bpy, tmp, *spec)
+    size = spec[3]
+    exported = export_scene(bpy.context.evaluated_depsgraph_get(), *size)
+    if spec[0] == "demo":
+        return exported, size, None
     reference = cycles_reference(bpy, scene, tmp, REFERENCE_SAMPLES, bounces, seed=101)
-    return exported, SIZE, reference[..., :3]
+    return exported, size, reference[..., :3]
 
 
 def main(quick: bool = False) -> str:
@@ -74,7 +69,7 @@ def main(quick: bool = False) -> str:
     rows = []
     try:
         ctx = create_context()
-        for name, (*_, bounces) in SCENES.items():
+        for name, (_, bounces) in SCENES.items():
             exported, size, reference = _scene(bpy, name, tmp)
             renderer = CLRenderer(exported, *size, ctx)
             renderer.render_sampled(1)  # compile and build the tables outside the timing

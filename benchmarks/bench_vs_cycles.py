@@ -69,15 +69,16 @@ def time_to_error(points: list[tuple[float, float]], target: float) -> float:
 # --- one F12 in this process (the worker) -------------------------------------------------
 
 
-def _build(bpy, scene_name: str, tmp: Path):
+def build_scene(bpy, tmp: Path, kind: str, roughness: float, world: str, size, ground=False):
+    """The comparison scene as the current Blender scene: the demo, or a sphere of
+    tests/cycles_scenes.py (``kind`` "diffuse" or "glossy", on a ground or not)."""
     import importlib
 
     import blender_helpers
 
     # The helpers reach the extension where the Blender tests install it; here it is the
-    # checkout's package, registered below.
+    # checkout's package, registered by the caller.
     blender_helpers.extension_submodule = importlib.import_module
-    kind, roughness, world, size = SCENES[scene_name]
     if kind == "demo":
         from btf_addon.blender.demo import build_demo_scene
 
@@ -85,7 +86,7 @@ def _build(bpy, scene_name: str, tmp: Path):
     from cycles_scenes import build
 
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
-    return build(bpy, tmp, kind, ground=False, roughness=roughness, world=world)
+    return build(bpy, tmp, kind, ground=ground, roughness=roughness, world=world)
 
 
 def worker(scene_name: str, renderer: str, samples: int, seed: int, out: Path) -> None:
@@ -96,7 +97,7 @@ def worker(scene_name: str, renderer: str, samples: int, seed: int, out: Path) -
 
     btf_addon.register()
     with tempfile.TemporaryDirectory(prefix="btf-bench-cycles-") as tmp:
-        scene = _build(bpy, scene_name, Path(tmp))
+        scene = build_scene(bpy, Path(tmp), *SCENES[scene_name])
         scene.view_settings.view_transform = "Standard"
         scene.render.image_settings.file_format = "OPEN_EXR"
         scene.render.filepath = str(Path(tmp) / "f12.exr")
