@@ -29,20 +29,30 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 class _Deferral:
-    """The main thread's state: ``depth`` of nested ``deferred`` blocks (0 inside
-    ``allowed``), the ``pending`` signals recorded, the handlers ours replaced."""
+    """The main thread's state: ``depth`` of nested ``deferred`` blocks, ``allowing``: the
+    depths at which ``allowed`` blocks were entered (innermost last; signals are held only in
+    ``deferred`` blocks opened inside the innermost), the ``pending`` signals recorded, the
+    handlers ours replaced."""
 
     def __init__(self) -> None:
         self.depth = 0
+        self.allowing: list[int] = []
         self.pending: list[int] = []
         self.previous: dict[int, object] = {}
+
+    def base(self) -> int:
+        """The depth at and below which signals land at once (the innermost ``allowed``)."""
+        return self.allowing[-1] if self.allowing else 0
+
+    def holding(self) -> bool:
+        return self.depth > self.base()
 
 
 _state = _Deferral()
 
 
 def _handler(signum, frame) -> None:
-    if _state.depth > 0:
+    if _state.holding():
         _state.pending.append(signum)
     else:  # between blocks (or inside allowed()): as if we were not installed
         _call_previous(signum, frame)
@@ -97,9 +107,11 @@ def _deliver(exc: BaseException | None) -> None:
 
 class deferred:  # noqa: N801 - used as a function: ``with deferred():``
     """Hold Ctrl-C and SIGTERM back in the block (module docstring); nested blocks hold them
-    until the outermost ends, which then delivers them to the handlers installed before.
-    Depths are restored as absolute values: an interrupt inside an inner block's exit leaves
-    the outer blocks' counts right."""
+    until the outermost ends, which then delivers them to the handlers installed before. A
+    block inside ``allowed`` (a shader compiled while an eye draws) holds them too and
+    delivers them at its end, into the ``allowed`` block; our handler stays installed for
+    the ``deferred`` blocks around it. Depths are restored as absolute values: an interrupt
+    inside an inner block's exit leaves the outer blocks' counts right."""
 
     def __enter__(self) -> deferred:
         self._outer_depth = None
@@ -120,8 +132,12 @@ class deferred:  # noqa: N801 - used as a function: ``with deferred():``
         if self._outer_depth is None:
             return False
         _state.depth = self._outer_depth
+        while _state.allowing and _state.allowing[-1] > _state.depth:
+            _state.allowing.pop()  # an allowed() inside left by an interrupt in its exit
         if self._outer_depth == 0:
             _uninstall()
+            _deliver(exc)
+        elif not _state.holding():  # back in an allowed() block: what was held lands now
             _deliver(exc)
         return False
 
@@ -131,21 +147,25 @@ class allowed:  # noqa: N801 - used as a function: ``with allowed():``
     before it lands as it starts); held back again after it."""
 
     def __enter__(self) -> allowed:
-        self._depth = 0
-        if not _main_thread() or _state.depth == 0:
+        self._entered = False
+        if not _main_thread() or not _state.holding():
             return self
-        self._depth = _state.depth
-        _state.depth = 0
+        _state.allowing.append(_state.depth)
+        self._entered = True
         try:
             _deliver(None)
         except BaseException:
-            _state.depth = self._depth
+            self._leave()
             raise
         return self
 
+    def _leave(self) -> None:
+        if self._entered:
+            self._entered = False
+            _state.allowing.pop()
+
     def __exit__(self, *_exc) -> bool:
-        if self._depth:
-            _state.depth = self._depth
+        self._leave()
         return False
 
 

@@ -148,6 +148,39 @@ def test_allowed_takes_a_sigint_at_once_and_a_held_one_first():
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_deferred_block_inside_allowed_leaves_the_frame_holding_signals():
+    """The frame's protocol stays held after an eye's drawing compiled a shader (the bridge
+    device compiles inside ``deferred``, within the frame's ``allowed`` drawing). Before the
+    fix that inner block was taken for the outermost and took our handler away: a later
+    Ctrl-C in the same frame landed at once, once between xrAcquireSwapchainImage and the
+    flag that says an image is held, and the teardown destroyed a swapchain with an image
+    acquired (the test runtime's strict abort, in 1 of some hundred runs of the test above)."""
+    import signal
+
+    order = []
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts.deferred():  # the frame
+            with interrupts.allowed():  # eye 0 draws...
+                with interrupts.deferred():  # ...and compiles: held in there...
+                    signal.raise_signal(signal.SIGINT)
+                    order.append("compiled")
+                order.append("not reached: the held SIGINT lands as the compile ends")
+    assert order == ["compiled"]
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts.deferred():  # the frame
+            with interrupts.allowed():
+                with interrupts.deferred():
+                    pass
+            signal.raise_signal(signal.SIGINT)  # eye 1's acquire: must be held
+            order.append("acquired")
+            assert interrupts.pending() == [signal.SIGINT]
+            with interrupts.allowed():  # and lands in the next drawing
+                order.append("not reached")
+    assert order == ["compiled", "acquired"]
+    assert interrupts.pending() == []
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_a_sigint_during_a_keyboardinterrupt_is_not_raised_twice():
     import signal
 
