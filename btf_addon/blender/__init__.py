@@ -48,19 +48,23 @@ def register() -> None:
 
 
 def _use_extension_kernel_cache() -> None:
-    """Compiled OpenCL kernels in the extension's user directory (removed with the extension)
-    instead of ~/.cache. Blender before 4.2, or the add-on run from a checkout (not an
-    installed extension), has no such directory: the default cache stays."""
+    """Compiled OpenCL kernels and BTF importance tables in the extension's user directory
+    (removed with the extension) instead of ~/.cache. Blender before 4.2, or the add-on run
+    from a checkout (not an installed extension), has no such directory: the default caches
+    stay."""
     import bpy
 
     from ..cl import programs
+    from ..core.sampling import table_cache
     from .addon import ADDON_PACKAGE
 
     try:
         folder = bpy.utils.extension_path_user(ADDON_PACKAGE, path="kernel_cache", create=True)
+        tables = bpy.utils.extension_path_user(ADDON_PACKAGE, path="importance_cache")
     except (AttributeError, ValueError, KeyError, OSError):
         return
     programs.set_cache_dir(folder)
+    table_cache.set_cache_dir(tables)
 
 
 def unregister() -> None:

@@ -1,5 +1,5 @@
-"""The installed extension keeps compiled OpenCL kernels in its user directory (removed with
-the extension), not in ~/.cache."""
+"""The installed extension keeps compiled OpenCL kernels and BTF importance tables in its user
+directory (removed with the extension), not in ~/.cache."""
 
 from __future__ import annotations
 
@@ -14,3 +14,9 @@ def test_kernel_cache_lives_in_the_extensions_user_directory(bpy_module, install
     folder = Path(bpy_module.utils.extension_path_user(EXTENSION_MODULE, path="kernel_cache"))
     assert programs.configured_cache_dir() == folder
     assert programs.cache_dir() == folder and folder.is_dir()
+
+
+def test_importance_tables_live_in_the_extensions_user_directory(bpy_module, installed):
+    table_cache = importlib.import_module(f"{EXTENSION_MODULE}.btf_addon.core.sampling.table_cache")
+    folder = Path(bpy_module.utils.extension_path_user(EXTENSION_MODULE, path="importance_cache"))
+    assert table_cache.cache_dir() == folder

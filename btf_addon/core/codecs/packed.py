@@ -176,6 +176,10 @@ class TableWriter:
         (a float4 table read as 16-byte rows)."""
         self.float_table(np.zeros(-self._float_cursor % multiple, np.float32))
 
+    def content(self) -> list[np.ndarray]:
+        """Everything written so far, headers first (what a digest of the material hashes)."""
+        return [self.int_header, self.float_header, *self._ints, *self._floats]
+
     def finish(self, name: str) -> PackedTables:
         int_stream = np.concatenate([self.int_header, *self._ints])
         float_stream = np.concatenate([self.float_header, *self._floats])
@@ -287,7 +291,7 @@ def pack(btf: BTF, importance: bool = False) -> PackedTables:
     writer.set(magic=MAGIC, codec=codec.codec_id, value_scale=btf.meta.value_scale)
     codec.pack(btf, writer)
     if importance and btf_importance.sampled_by_table(btf):
-        table = btf_importance.importance_table(btf)
+        table = btf_importance.importance_table(btf, content=writer.content)
         writer.set(
             f_importance=writer.float_table(table.packed()),
             importance_grid=table.grid,
