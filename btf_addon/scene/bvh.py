@@ -3,7 +3,9 @@
 Nodes of more than SAH_MIN triangles are split where the surface area heuristic finds the
 cheapest pair of children (binned centroids, every axis: MacDonald & Booth 1990, Wald 2007), so
 that a large triangle (a ground plane) is not dragged into boxes full of small ones; smaller
-nodes take the median on the longest centroid axis. Leaves of ≤ LEAF_SIZE triangles, nodes in
+nodes take the median on the longest centroid axis, and their subtrees (most of the nodes) are
+built together, a tree level per numpy pass, not a Python step per node: 65k triangles build
+about 2x faster than node by node. Leaves of ≤ LEAF_SIZE triangles, nodes in
 depth-first order: an internal node's left child is the next node, its right child's index is
 stored. The triangles are reordered so that every leaf owns a contiguous range.
 """
@@ -11,6 +13,7 @@ stored. The triangles are reordered so that every leaf owns a contiguous range.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
@@ -30,14 +33,15 @@ class BVH:
 
 
 def build_bvh(triangles: np.ndarray) -> BVH:
-    """triangles: (T, 3, 3) world-space vertices (finite) → BVH."""
+    """triangles: (T, 3, 3) world-space vertices (finite, T ≥ 1) → BVH."""
+    if len(triangles) == 0:
+        raise ValueError("a BVH needs at least one triangle")
     tri_min = triangles.min(axis=1)
     tri_max = triangles.max(axis=1)
     centroids = triangles.mean(axis=1)
-    bounds: list[np.ndarray] = []
-    links: list[tuple[int, int]] = []
-    order: list[np.ndarray] = []
-    placed = 0
+    bounds: list[np.ndarray | None] = []
+    links: list[tuple[int, int] | None] = []
+    small: list[tuple[int, np.ndarray]] = []  # (first node, triangle ids) of median subtrees
     # Explicit stack of (triangle ids, parent node whose right link to patch or -1).
     stack: list[tuple[np.ndarray, int]] = [(np.arange(len(triangles)), -1)]
     while stack:
@@ -45,28 +49,118 @@ def build_bvh(triangles: np.ndarray) -> BVH:
         node = len(bounds)
         if parent >= 0:
             links[parent] = (node, 0)
-        bounds.append(np.concatenate([tri_min[ids].min(axis=0), tri_max[ids].max(axis=0)]))
-        if len(ids) <= LEAF_SIZE:
-            links.append((placed, len(ids)))
-            order.append(ids)
-            placed += len(ids)
+        if len(ids) <= SAH_MIN:  # a median subtree: its nodes filled in below, all at once
+            size = len(_template(len(ids)))
+            small.append((node, ids))
+            bounds.extend([None] * size)
+            links.extend([None] * size)
             continue
         c = centroids[ids]
-        left = _sah_left(c, tri_min[ids], tri_max[ids]) if len(ids) > SAH_MIN else None
-        if left is None:  # the median on the longest axis
+        left = _sah_left(c, tri_min[ids], tri_max[ids])
+        if left is None:  # no axis to bin: the median on the longest axis
             axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
             left = np.zeros(len(ids), dtype=bool)
             left[np.argpartition(c[:, axis], len(ids) // 2)[: len(ids) // 2]] = True
+        bounds.append(np.concatenate([tri_min[ids].min(axis=0), tri_max[ids].max(axis=0)]))
         links.append((-1, 0))  # the right child is patched in when created
         # Push right first so the left child is built next: it becomes node + 1.
         stack.append((ids[~left], node))
         stack.append((ids[left], -1))
-    empty = np.zeros(0, dtype=np.int64)
-    return BVH(
-        np.array(bounds, dtype=np.float32).reshape(-1, 6),
-        np.array(links, dtype=np.int32).reshape(-1, 2),
-        np.concatenate(order) if order else empty,
-    )
+    flat_bounds = np.zeros((len(bounds), 6), dtype=np.float64)
+    flat_links = np.zeros((len(links), 2), dtype=np.int64)
+    big = np.array([i for i, b in enumerate(bounds) if b is not None], dtype=np.int64)
+    if len(big):
+        flat_bounds[big] = [bounds[i] for i in big]
+        flat_links[big] = [links[i] for i in big]
+    order = _fill_median_subtrees(small, tri_min, tri_max, centroids, flat_bounds, flat_links)
+    return BVH(flat_bounds.astype(np.float32), flat_links.astype(np.int32), order)
+
+
+@cache
+def _template(n: int) -> np.ndarray:
+    """The median subtree over n triangles (its shape depends on n alone): (nodes, 3) rows in
+    depth-first order, (first, count, right child's row or -1 for a leaf), ranges relative to
+    the subtree's triangle order. A node's left child takes the n // 2 lowest centroids."""
+    rows: list[list[int]] = []
+
+    def visit(first: int, count: int) -> None:
+        row = len(rows)
+        rows.append([first, count, -1])
+        if count > LEAF_SIZE:
+            half = count // 2
+            visit(first, half)
+            rows[row][2] = len(rows)
+            visit(first + half, count - half)
+
+    visit(0, n)
+    return np.array(rows, dtype=np.int64).reshape(-1, 3)
+
+
+def _fill_median_subtrees(small, tri_min, tri_max, centroids, bounds, links) -> np.ndarray:
+    """Every median subtree at once, a tree level per pass (a 64-triangle subtree takes 4):
+    each pass sorts every node of that level by its centroids' longest axis (one lexsort over
+    all of them), and the halves are the next level's nodes. Then the subtrees' boxes (one
+    reduceat per side) and links from their templates. Returns the triangle order: the
+    subtrees' triangles in the order of their first nodes (the depth-first order, so leaves'
+    ranges follow the nodes). A Python loop per node cost ≈ 20 µs; most nodes are here."""
+    if not small:
+        return np.zeros(0, dtype=np.int64)
+    small.sort(key=lambda job: job[0])
+    sizes = np.array([len(ids) for _, ids in small], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    order = np.concatenate([ids for _, ids in small]).astype(np.int64)
+    # Splitting: (first, count) of the nodes still to split, over ``order``.
+    first, count = offsets[sizes > LEAF_SIZE], sizes[sizes > LEAF_SIZE]
+    while len(first):
+        member = _ranges(first, count)
+        node_of = np.repeat(np.arange(len(first)), count)
+        c = centroids[order[member]]  # the members packed: range i starts at packed[i]
+        packed = np.concatenate([[0], np.cumsum(count)[:-1]])
+        extent = _reduce_ranges(np.maximum, c, packed, count) - _reduce_ranges(
+            np.minimum, c, packed, count
+        )
+        axis = np.argmax(extent, axis=1)
+        key = c[np.arange(len(member)), axis[node_of]]
+        order[member] = order[member][np.lexsort((key, node_of))]
+        half = count // 2
+        first = np.concatenate([first, first + half])
+        count = np.concatenate([half, count - half])
+        keep = count > LEAF_SIZE
+        first, count = first[keep], count[keep]
+        ranked = np.argsort(first, kind="stable")
+        first, count = first[ranked], count[ranked]
+    # Nodes: every subtree's template, shifted to its first node and its triangles' offset.
+    ids_lo, ids_hi = tri_min[order], tri_max[order]
+    for n in np.unique(sizes):
+        jobs = np.flatnonzero(sizes == n)
+        rows = _template(int(n))
+        node0 = np.array([small[j][0] for j in jobs], dtype=np.int64)
+        nodes = (node0[:, None] + np.arange(len(rows))).ravel()
+        range_first = (offsets[jobs][:, None] + rows[:, 0]).ravel()
+        range_count = np.tile(rows[:, 1], len(jobs))
+        right = np.tile(rows[:, 2], len(jobs))
+        leaf = right < 0
+        links[nodes] = np.stack(
+            [np.where(leaf, range_first, (node0[:, None] + rows[:, 2]).ravel()),
+             np.where(leaf, range_count, 0)], axis=1,
+        )  # fmt: skip
+        bounds[nodes, :3] = _reduce_ranges(np.minimum, ids_lo, range_first, range_count)
+        bounds[nodes, 3:] = _reduce_ranges(np.maximum, ids_hi, range_first, range_count)
+    return order
+
+
+def _ranges(first: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """The indices first[i] .. first[i] + count[i] - 1 of every range, concatenated."""
+    starts = np.repeat(first - np.concatenate([[0], np.cumsum(count)[:-1]]), count)
+    return starts + np.arange(count.sum())
+
+
+def _reduce_ranges(ufunc, values: np.ndarray, first: np.ndarray, count: np.ndarray):
+    """ufunc.reduce of values[first[i] : first[i] + count[i]] per range (count ≥ 1; ranges may
+    nest or overlap): reduceat over the interleaved (first, end) pairs, the even results."""
+    padded = np.concatenate([values, values[:1]])  # an end at len(values) is a valid index
+    pairs = np.stack([first, first + count], axis=1).ravel()
+    return ufunc.reduceat(padded, pairs, axis=0)[::2]
 
 
 def _half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -84,33 +178,40 @@ def _sah_left(c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | Non
 
 
 def _cheapest_split(c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray | None:
-    best_cost, best = np.inf, None
-    c_lo, c_hi = c.min(axis=0), c.max(axis=0)
-    for axis in range(3):
-        scale = SAH_BINS / (c_hi[axis] - c_lo[axis]) if c_hi[axis] > c_lo[axis] else np.inf
-        if not np.isfinite(scale):
-            continue
-        scaled = (c[:, axis] - c_lo[axis]) * scale
-        bins = np.minimum(scaled, SAH_BINS - 1).astype(np.uint8)  # uint8: a radix sort below
-        count = np.bincount(bins, minlength=SAH_BINS)
-        # Each bin's box: the triangles sorted by bin, reduced per run (ufunc.at is 5x slower).
-        order = np.argsort(bins, kind="stable")
-        ranked = bins[order]
-        starts = np.flatnonzero(np.r_[True, ranked[1:] != ranked[:-1]])
-        b_lo = np.full((SAH_BINS, 3), np.inf)
-        b_hi = np.full((SAH_BINS, 3), -np.inf)
-        b_lo[ranked[starts]] = np.minimum.reduceat(lo[order], starts, axis=0)
-        b_hi[ranked[starts]] = np.maximum.reduceat(hi[order], starts, axis=0)
-        # split k: bins [0, k] left, (k, SAH_BINS) right
-        left_area = _half_area(np.minimum.accumulate(b_lo), np.maximum.accumulate(b_hi))
-        right_lo = np.minimum.accumulate(b_lo[::-1])[::-1]
-        right_hi = np.maximum.accumulate(b_hi[::-1])[::-1]
-        right_area = _half_area(right_lo, right_hi)
-        n_left = np.cumsum(count)[:-1]
-        n_right = len(c) - n_left
-        cost = left_area[:-1] * n_left + right_area[1:] * n_right  # empty sides: inf · 0
-        cost[(n_left == 0) | (n_right == 0) | ~np.isfinite(cost)] = np.inf
-        k = int(np.argmin(cost))
-        if cost[k] < best_cost:
-            best_cost, best = cost[k], bins <= k
-    return best
+    """The three axes at once: each triangle's bin on every axis as one key (axis · BINS +
+    bin, uint8: a radix sort), each bin's box by one reduceat over the keys' sorted order
+    (ufunc.at is 5x slower), the cost of every split of every axis in one array; the first
+    axis, then split, of the lowest finite cost wins."""
+    c_lo = c.min(axis=0)
+    extent = c.max(axis=0) - c_lo
+    scale = np.where(extent > 0.0, SAH_BINS / np.where(extent > 0.0, extent, 1.0), np.inf)
+    binned = np.isfinite(scale)  # no extent, or a denormal one (the scale overflows): median
+    if not binned.any():
+        return None
+    scaled = (c - c_lo) * np.where(binned, scale, 0.0)
+    bins = np.minimum(scaled, SAH_BINS - 1).astype(np.uint8)  # (N, 3)
+    keys = (bins.T + (np.arange(3, dtype=np.uint8) * SAH_BINS)[:, None]).ravel()  # axis-major
+    count = np.bincount(keys, minlength=3 * SAH_BINS).reshape(3, SAH_BINS)
+    order = np.argsort(keys, kind="stable")
+    ranked = keys[order]
+    starts = np.flatnonzero(np.r_[True, ranked[1:] != ranked[:-1]])
+    triangle = order % len(c)  # the key's triangle (keys are axis-major copies)
+    b_lo = np.full((3 * SAH_BINS, 3), np.inf)
+    b_hi = np.full((3 * SAH_BINS, 3), -np.inf)
+    b_lo[ranked[starts]] = np.minimum.reduceat(lo[triangle], starts, axis=0)
+    b_hi[ranked[starts]] = np.maximum.reduceat(hi[triangle], starts, axis=0)
+    b_lo, b_hi = b_lo.reshape(3, SAH_BINS, 3), b_hi.reshape(3, SAH_BINS, 3)
+    # split k: bins [0, k] left, (k, SAH_BINS) right
+    left_area = _half_area(np.minimum.accumulate(b_lo, axis=1), np.maximum.accumulate(b_hi, axis=1))
+    right_lo = np.minimum.accumulate(b_lo[:, ::-1], axis=1)[:, ::-1]
+    right_hi = np.maximum.accumulate(b_hi[:, ::-1], axis=1)[:, ::-1]
+    right_area = _half_area(right_lo, right_hi)
+    n_left = np.cumsum(count, axis=1)[:, :-1]
+    n_right = len(c) - n_left
+    cost = left_area[:, :-1] * n_left + right_area[:, 1:] * n_right  # empty sides: inf · 0
+    cost[(n_left == 0) | (n_right == 0) | ~np.isfinite(cost) | ~binned[:, None]] = np.inf
+    best = int(np.argmin(cost))
+    if not np.isfinite(cost.flat[best]):
+        return None
+    axis, k = divmod(best, SAH_BINS - 1)
+    return bins[:, axis] <= k

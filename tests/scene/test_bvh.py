@@ -155,3 +155,46 @@ def test_extreme_coordinates_build_without_warnings(extreme):
         warnings.simplefilter("error")
         tree = build_bvh(triangles)
     _check_layout(tree, triangles)
+
+
+def _median_reference(triangles: np.ndarray):
+    """An independent median builder, one node at a time (what the batched median subtrees
+    replaced): depth-first nodes as (box, leaf triangle set or None), the left child taking
+    the n // 2 lowest centroids on the longest centroid axis."""
+    centroids = triangles.mean(axis=1)
+    nodes = []
+
+    def visit(ids):
+        box = np.concatenate([triangles[ids].min(axis=(0, 1)), triangles[ids].max(axis=(0, 1))])
+        if len(ids) <= LEAF_SIZE:
+            nodes.append((box, frozenset(ids.tolist())))
+            return
+        nodes.append((box, None))
+        c = centroids[ids]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        ranked = ids[np.argsort(c[:, axis], kind="stable")]
+        visit(ranked[: len(ids) // 2])
+        visit(ranked[len(ids) // 2 :])
+
+    visit(np.arange(len(triangles)))
+    return nodes
+
+
+@pytest.mark.parametrize("n", [1, 5, 9, 63, 64, 65, 1000])
+def test_batched_median_subtrees_equal_a_node_by_node_build(monkeypatch, n):
+    """Without the heuristic every node is a median node, all built in batches a level at a
+    time: the same nodes, boxes and leaves as the one-node-at-a-time reference (random
+    triangles: no two centroids tie on an axis, so the partition is unique)."""
+    monkeypatch.setattr(bvh, "SAH_MIN", 10**9)
+    triangles = np.random.default_rng(n).normal(size=(n, 3, 3))
+    tree = build_bvh(triangles)
+    _check_layout(tree, triangles)
+    reference = _median_reference(triangles)
+    assert len(tree.links) == len(reference)
+    for node, (box, leaf) in enumerate(reference):
+        np.testing.assert_array_equal(tree.bounds[node], box.astype(np.float32))
+        first, count = tree.links[node]
+        if leaf is None:
+            assert count == 0
+        else:
+            assert frozenset(tree.order[first : first + count].tolist()) == leaf
