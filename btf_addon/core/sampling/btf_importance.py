@@ -194,7 +194,7 @@ def importance_table(
     btf: BTF, content: Callable[[], list[np.ndarray]] | None = None
 ) -> ImportanceTable:
     """``build(btf)`` with the defaults, built once per BTF object: on the first Sampled render
-    of a loaded material (≈ 0.5 s on 2 cores); later renders of the session share it.
+    of a loaded material (0.4–1.6 s on 2 cores); later renders of the session share it.
     ``content``: the material's data as arrays (its packed tables), called only when this
     object has no table yet: the table is then looked up on disk under their digest, and
     stored there once built (table_cache.py), so a new session of the same material skips
