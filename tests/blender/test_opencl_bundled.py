@@ -41,6 +41,11 @@ scene.render.engine = "BTF_RENDER"
 scene.render.resolution_x, scene.render.resolution_y = 24, 16
 scene.render.resolution_percentage = 100
 scene.btf_render.lights_total = 4
+# The startup file's own cube sits exactly where the new one goes: two coincident surfaces,
+# where which one a ray sees is a tie the BVH's layout decides. Only ours stays.
+startup_cube = bpy.data.objects.get("Cube")
+if startup_cube is not None:
+    bpy.data.objects.remove(startup_cube)
 bpy.ops.mesh.primitive_cube_add()
 # A dark cube against a bright World: contrast whichever path draws it. (Lit by the startup
 # file's grey World, the cube's visible face came out 0.04 against the World's 0.05: within 0.04
