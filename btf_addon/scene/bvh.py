@@ -39,21 +39,21 @@ def build_bvh(triangles: np.ndarray) -> BVH:
     tri_min = triangles.min(axis=1)
     tri_max = triangles.max(axis=1)
     centroids = triangles.mean(axis=1)
-    bounds: list[np.ndarray | None] = []
-    links: list[tuple[int, int] | None] = []
+    nodes = 0  # nodes numbered so far (depth-first)
+    # SAH nodes: their numbers, boxes and links; a link's right child is patched in later.
+    big: list[int] = []
+    big_bounds: list[np.ndarray] = []
+    big_links: list[list[int]] = []
     small: list[tuple[int, np.ndarray]] = []  # (first node, triangle ids) of median subtrees
-    # Explicit stack of (triangle ids, parent node whose right link to patch or -1).
+    # Explicit stack of (triangle ids, the big_links entry whose right child this is, or -1).
     stack: list[tuple[np.ndarray, int]] = [(np.arange(len(triangles)), -1)]
     while stack:
         ids, parent = stack.pop()
-        node = len(bounds)
         if parent >= 0:
-            links[parent] = (node, 0)
+            big_links[parent][0] = nodes
         if len(ids) <= SAH_MIN:  # a median subtree: its nodes filled in below, all at once
-            size = len(_template(len(ids)))
-            small.append((node, ids))
-            bounds.extend([None] * size)
-            links.extend([None] * size)
+            small.append((nodes, ids))
+            nodes += len(_template(len(ids)))
             continue
         c = centroids[ids]
         left = _sah_left(c, tri_min[ids], tri_max[ids])
@@ -61,19 +61,20 @@ def build_bvh(triangles: np.ndarray) -> BVH:
             axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
             left = np.zeros(len(ids), dtype=bool)
             left[np.argpartition(c[:, axis], len(ids) // 2)[: len(ids) // 2]] = True
-        bounds.append(np.concatenate([tri_min[ids].min(axis=0), tri_max[ids].max(axis=0)]))
-        links.append((-1, 0))  # the right child is patched in when created
-        # Push right first so the left child is built next: it becomes node + 1.
-        stack.append((ids[~left], node))
+        big.append(nodes)
+        big_bounds.append(np.concatenate([tri_min[ids].min(axis=0), tri_max[ids].max(axis=0)]))
+        big_links.append([-1, 0])
+        nodes += 1
+        # Push right first so the left child is built next: it becomes this node + 1.
+        stack.append((ids[~left], len(big_links) - 1))
         stack.append((ids[left], -1))
-    flat_bounds = np.zeros((len(bounds), 6), dtype=np.float64)
-    flat_links = np.zeros((len(links), 2), dtype=np.int64)
-    big = np.array([i for i, b in enumerate(bounds) if b is not None], dtype=np.int64)
-    if len(big):
-        flat_bounds[big] = [bounds[i] for i in big]
-        flat_links[big] = [links[i] for i in big]
-    order = _fill_median_subtrees(small, tri_min, tri_max, centroids, flat_bounds, flat_links)
-    return BVH(flat_bounds.astype(np.float32), flat_links.astype(np.int32), order)
+    bounds = np.zeros((nodes, 6), dtype=np.float64)
+    links = np.zeros((nodes, 2), dtype=np.int64)
+    if big:
+        bounds[big] = big_bounds
+        links[big] = big_links
+    order = _fill_median_subtrees(small, tri_min, tri_max, centroids, bounds, links)
+    return BVH(bounds.astype(np.float32), links.astype(np.int32), order)
 
 
 @cache
@@ -100,12 +101,11 @@ def _fill_median_subtrees(small, tri_min, tri_max, centroids, bounds, links) -> 
     """Every median subtree at once, a tree level per pass (a 64-triangle subtree takes 4):
     each pass sorts every node of that level by its centroids' longest axis (one lexsort over
     all of them), and the halves are the next level's nodes. Then the subtrees' boxes (one
-    reduceat per side) and links from their templates. Returns the triangle order: the
-    subtrees' triangles in the order of their first nodes (the depth-first order, so leaves'
-    ranges follow the nodes). A Python loop per node cost ≈ 20 µs; most nodes are here."""
+    reduceat per side) and links from their templates. ``small`` comes in the order of its
+    first nodes (depth-first), and so do the subtrees' triangles in the returned order: the
+    leaves' ranges follow the nodes. A Python loop per node cost ≈ 20 µs; most nodes are here."""
     if not small:
         return np.zeros(0, dtype=np.int64)
-    small.sort(key=lambda job: job[0])
     sizes = np.array([len(ids) for _, ids in small], dtype=np.int64)
     offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     order = np.concatenate([ids for _, ids in small]).astype(np.int64)
@@ -125,10 +125,8 @@ def _fill_median_subtrees(small, tri_min, tri_max, centroids, bounds, links) -> 
         half = count // 2
         first = np.concatenate([first, first + half])
         count = np.concatenate([half, count - half])
-        keep = count > LEAF_SIZE
+        keep = count > LEAF_SIZE  # the ranges are disjoint: their order does not matter
         first, count = first[keep], count[keep]
-        ranked = np.argsort(first, kind="stable")
-        first, count = first[ranked], count[ranked]
     # Nodes: every subtree's template, shifted to its first node and its triangles' offset.
     ids_lo, ids_hi = tri_min[order], tri_max[order]
     for n in np.unique(sizes):
@@ -138,12 +136,11 @@ def _fill_median_subtrees(small, tri_min, tri_max, centroids, bounds, links) -> 
         nodes = (node0[:, None] + np.arange(len(rows))).ravel()
         range_first = (offsets[jobs][:, None] + rows[:, 0]).ravel()
         range_count = np.tile(rows[:, 1], len(jobs))
-        right = np.tile(rows[:, 2], len(jobs))
-        leaf = right < 0
+        right = (node0[:, None] + rows[:, 2]).ravel()
+        leaf = np.tile(rows[:, 2] < 0, len(jobs))
         links[nodes] = np.stack(
-            [np.where(leaf, range_first, (node0[:, None] + rows[:, 2]).ravel()),
-             np.where(leaf, range_count, 0)], axis=1,
-        )  # fmt: skip
+            [np.where(leaf, range_first, right), np.where(leaf, range_count, 0)], axis=1
+        )
         bounds[nodes, :3] = _reduce_ranges(np.minimum, ids_lo, range_first, range_count)
         bounds[nodes, 3:] = _reduce_ranges(np.maximum, ids_hi, range_first, range_count)
     return order
