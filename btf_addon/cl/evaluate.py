@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.codecs.packed import pack
-from ..core.model import BTF, DelegatingBTF, Queries
+from ..core.model import BTF, DelegatingBTF, Queries, innermost
 from .context import CLContext
 from .programs import build_program
 
@@ -89,8 +89,7 @@ def batched_launch(btf: BTF, device) -> tuple[str, int, int | None]:
     hides the misses with its many work-items instead: one query each, its own group size."""
     import pyopencl as cl
 
-    while isinstance(btf, DelegatingBTF):
-        btf = btf.btf
+    btf = innermost(btf)
     name = {"mlvq": "eval_mlvq", "dense": "eval_dense"}.get(btf.meta.codec)
     if name is None:
         return "eval_btf", 0, None

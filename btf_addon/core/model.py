@@ -183,6 +183,13 @@ class DelegatingBTF(BTF):
         return self.btf.params()
 
 
+def innermost(btf: BTF) -> BTF:
+    """The BTF under any device wrappers (``DelegatingBTF``): the numpy codec itself."""
+    while isinstance(btf, DelegatingBTF):
+        btf = btf.btf
+    return btf
+
+
 def _canonical(theta_deg: np.ndarray, phi_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     negative = theta_deg < 0.0
     theta = np.abs(theta_deg)

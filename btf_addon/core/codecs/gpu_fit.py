@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UnsupportedBTFError
-from ..model import BTF, DelegatingBTF, box_reduce
+from ..model import BTF, box_reduce, innermost
 from .dense import DenseBTF
 from .packed import MAX_EXACT_INT, TABLE_WIDTH
 from .svd import SVDBTF
@@ -60,8 +60,7 @@ def fit_for_gpu(
     with the sizes when even a 1×1-texel copy would not fit. ``who``: what the message says
     uses the copy ("the final render traces" for OpenCL, whose buffers hold the same layout:
     offsets as float32, so the 2^24 limit is the same)."""
-    while isinstance(btf, DelegatingBTF):
-        btf = btf.btf
+    btf = innermost(btf)
     n = packed_floats(btf)
     if n is None or fits(n, max_texture_size, max_bytes):
         return btf, None

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import UnsupportedBTFError
 from ..mapping import BLOCK_SLOT, FILTER_IDS, MAPPING_IDS, MATERIAL_BLOCK_FLOATS
-from ..model import BTF, DelegatingBTF
+from ..model import BTF, innermost
 from ..sampling import btf_importance
 
 TABLE_WIDTH = 4096  # texels per row of both streams
@@ -279,8 +279,7 @@ def pack(btf: BTF, importance: bool = False) -> PackedTables:
     ``importance``: a measured codec's sampling table too (core/sampling/btf_importance.py; the
     Sampled
     final render's), built once per BTF object."""
-    while isinstance(btf, DelegatingBTF):
-        btf = btf.btf
+    btf = innermost(btf)
     codec = codecs().get(btf.meta.codec)
     if codec is None or not codec.on_gpu:
         raise UnsupportedBTFError(

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import BTF, DelegatingBTF
+from ..model import BTF, innermost
 from . import table_cache
 from .envmap import LUMINANCE
 
@@ -47,9 +47,7 @@ MEASURED_CODECS = ("mlvq", "dense", "svd")
 
 def sampled_by_table(btf: BTF) -> bool:
     """Whether ``btf``'s codec (under any device wrapper) is sampled by a table."""
-    while isinstance(btf, DelegatingBTF):
-        btf = btf.btf
-    return btf.meta.codec in MEASURED_CODECS
+    return innermost(btf).meta.codec in MEASURED_CODECS
 
 
 def square_to_disk(s: np.ndarray) -> np.ndarray:
@@ -156,8 +154,7 @@ def build(
     the texture (k ≥ 1); ``uv``: (T, 2) texture coordinates to average instead (a cluster's
     texels)."""
     t0 = time.perf_counter()
-    while isinstance(btf, DelegatingBTF):
-        btf = btf.btf  # the numpy codec under a device wrapper
+    btf = innermost(btf)  # the numpy codec under a device wrapper
     rng = np.random.default_rng(seed)
     k = max(math.isqrt(max(texels, 1)), 1)
     strata = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2) + 0.5) / k
@@ -211,11 +208,8 @@ def importance_table(
 def _built_or_stored(btf: BTF, content) -> ImportanceTable:
     if content is None:
         return build(btf)
-    inner = btf
-    while isinstance(inner, DelegatingBTF):
-        inner = inner.btf
     params = {"grid": GRID, "views": VIEWS, "texels": TEXELS, "defensive": DEFENSIVE, "seed": 0}
-    key = table_cache.table_key(content(), params, (sys.modules[__name__], type(inner)))
+    key = table_cache.table_key(content(), params, (sys.modules[__name__], type(innermost(btf))))
     t0 = time.perf_counter()
     density = table_cache.load(key, (VIEWS * VIEWS, GRID, GRID), DEFENSIVE)
     if density is not None:
