@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..core.codecs import packed
 from ..core.errors import BuildError
-from ..core.fileio import atomic_write
+from ..core.fileio import atomic_write, user_cache_root
 
 log = logging.getLogger(__name__)
 
@@ -66,8 +66,7 @@ def configured_cache_dir() -> Path:
         return _cache_dir_setting
     if env := os.environ.get("BTF_CL_CACHE"):
         return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "btf_materials" / "opencl"
+    return user_cache_root() / "btf_materials" / "opencl"
 
 
 def cache_dir() -> Path:
@@ -117,7 +116,7 @@ def prepare_driver_caches() -> None:
     pyopencl and pytools cache under ``$XDG_CACHE_HOME`` and raise. Where those folders cannot
     be written (sandboxes, farms, a read-only HOME) they are pointed at temporary ones, and the
     folder that failed is logged and kept in ``unwritable_folders`` for the diagnosis."""
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    base = user_cache_root()
     pocl = Path(os.environ.get("POCL_CACHE_DIR") or base / "pocl")
     used = _usable(pocl, "pocl")
     if used != pocl:

@@ -40,6 +40,12 @@ def atomic_write_path(path: str | Path, write: Callable[[Path], None]) -> Path:
     return _atomic(Path(path), lambda tmp, fh: write(tmp))
 
 
+def user_cache_root() -> Path:
+    """Where per-user caches go: ``$XDG_CACHE_HOME``, else ``~/.cache`` (read each call: the
+    OpenCL set-up may point it elsewhere when it cannot be written)."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+
+
 def _host() -> str:
     """This machine's name as it may appear in a file name: a shared folder (NFS) seen from
     several machines must not have one machine judge another's process ids."""

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fileio import atomic_write
+from ..fileio import atomic_write, user_cache_root
 
 log = logging.getLogger(__name__)
 
@@ -53,8 +53,7 @@ def cache_dir() -> Path | None:
     env = os.environ.get("BTF_TABLE_CACHE")
     if env:
         return None if env.strip().lower() == OFF else Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "btf_materials" / "importance"
+    return user_cache_root() / "btf_materials" / "importance"
 
 
 def _source_text(obj) -> bytes:
