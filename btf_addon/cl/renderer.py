@@ -115,7 +115,7 @@ class CLRenderer:
         self._texel_filter: str | None = None
         self._upload_blocks()
         env = scene.environment
-        rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
+        rgba = env.rgba32()
         self.env = self._buffer(rgba.ravel(), np.float32)
         self.scene_lights = self._buffer(pack_lights(scene.lights).ravel(), np.float32)
         self.scene_light_count = np.int32(len(scene.lights))

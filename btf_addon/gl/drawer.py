@@ -200,7 +200,7 @@ class ProgressiveDrawer:
         if previous is not None and previous.scene.environment is env:
             self.env_tex = previous.env_tex
         else:
-            rgba = np.concatenate([env.radiance, np.ones((*env.radiance.shape[:2], 1))], axis=-1)
+            rgba = env.rgba32()
             # Rows go up top first: texture coordinate t = 0 is the first row uploaded, and the
             # shader reads t = 0 as the zenith (shaders/env_lib.glsl). Bilinear, wrapping
             # around the horizontal seam, as Blender's Environment Texture.

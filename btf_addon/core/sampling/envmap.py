@@ -77,27 +77,37 @@ class Environment:
         if not np.isfinite(rotation_z_rad):
             raise ValueError(f"environment rotation must be finite, got {rotation_z_rad!r}")
         # One float64 copy, cleaned and scaled in place: a large map is held once, not three
-        # times (memory model: core/memory.py ENV_PIXEL_BYTES); the values are the same.
+        # times (memory model: core/memory.py ENV_PIXEL_BYTES); the values are the same. A clean
+        # map (the usual case) costs two reading passes for the checks: every pass over a
+        # 1024 × 512 map is milliseconds of each F12's fixed cost.
         with np.errstate(invalid="ignore"):  # signalling NaNs in a file: cleaned just below
             radiance = np.array(image[..., :3], dtype=np.float64)
         del image
-        bad = ~np.isfinite(radiance)
-        self.nonfinite_count = int(np.count_nonzero(np.any(bad, axis=-1)))
-        negative = radiance < 0
-        self.negative_count = int(np.count_nonzero(np.any(negative, axis=-1)))
-        if self.nonfinite_count:
+        self.nonfinite_count = self.negative_count = 0
+        finite = np.isfinite(radiance)
+        if not finite.all():
+            self.nonfinite_count = int(np.count_nonzero(~finite.all(axis=-1)))
             log.warning("environment: %d NaN/Inf pixels set to 0", self.nonfinite_count)
-        if self.negative_count:  # HDR files often hold tiny negative noise: not worth a warning
+            radiance[~finite] = 0.0
+        del finite
+        if radiance.min(initial=0.0) < 0.0:
+            self.negative_count = int(np.count_nonzero((radiance < 0).any(axis=-1)))
+            # HDR files often hold tiny negative noise: not worth a warning
             log.debug("environment: %d negative pixels set to 0", self.negative_count)
-        bad |= negative
-        del negative
-        radiance[bad] = 0.0
-        del bad
-        radiance *= float(strength)
+            np.maximum(radiance, 0.0, out=radiance)
+        if strength != 1.0:
+            radiance *= float(strength)
         self.radiance = radiance
         self.height, self.width = self.radiance.shape[:2]
         self.rotation_z_rad = float(rotation_z_rad)
         self._build_distribution()
+
+    def rgba32(self) -> np.ndarray:
+        """(H, W, 4) float32 radiance with alpha 1: the texture both GPU back ends upload."""
+        rgba = np.empty((self.height, self.width, 4), dtype=np.float32)
+        rgba[..., :3] = self.radiance
+        rgba[..., 3] = 1.0
+        return rgba
 
     @classmethod
     def constant(cls, rgb, strength: float = 1.0) -> Environment:
@@ -106,20 +116,22 @@ class Environment:
     def _build_distribution(self) -> None:
         h, w = self.height, self.width
         sin_rows = np.sin(np.pi * (np.arange(h) + 0.5) / h)
-        lum = np.maximum(self.radiance @ LUMINANCE, 0.0)
-        weight = lum * sin_rows[:, None]
+        weight = self.radiance @ LUMINANCE  # ≥ 0: the radiance was cleaned of negatives
+        weight *= sin_rows[:, None]
         total = weight.sum()
         # Far below this nothing is visible at all; also covers the all-zero map.
         self.is_black = not (total > 0.0 and np.isfinite(total))
         if self.is_black:
             weight = np.broadcast_to(sin_rows[:, None], (h, w)).copy()
-        weight = weight / weight.sum()  # normalise first: 1e6-valued maps stay well scaled
+        weight /= weight.sum()  # normalise first: 1e6-valued maps stay well scaled
         row_mass = weight.sum(axis=1)
         self.row_pdf = row_mass  # probability of each row
         self.row_cdf = np.concatenate([[0.0], np.cumsum(row_mass)])
         self.row_cdf /= self.row_cdf[-1]
-        safe = np.where(row_mass > 0, row_mass, 1.0)
-        self.col_pdf = np.where(row_mass[:, None] > 0, weight / safe[:, None], 1.0 / w)
+        empty = row_mass <= 0
+        weight /= np.where(empty, 1.0, row_mass)[:, None]  # in place: the map's size once more
+        weight[empty] = 1.0 / w
+        self.col_pdf = weight
         self.col_cdf = np.concatenate([np.zeros((h, 1)), np.cumsum(self.col_pdf, axis=1)], axis=1)
         self.col_cdf /= self.col_cdf[:, -1:]
 
