@@ -20,27 +20,29 @@ BTF_ONLY = ("diffuse", "glossy")
 
 
 @pytest.mark.parametrize(
-    ("kind", "ground", "bounces", "bound"),
+    ("kind", "ground", "bounces", "bound", "samples"),
     [
-        ("diffuse", False, 0, 0.02),  # the issue's bound for Lambertian
-        ("glossy", False, 0, 0.05),  # the issue's bound for GGX
-        ("diffuse", True, 0, 0.03),  # the sphere shadows the ground plane
-        ("diffuse", True, 2, 0.04),  # and the two light each other up
-        # Non-BTF materials through the analytic Principled model; measured 0.53 % (metal:
-        # Schlick = Cycles' F82 with a white tint) and 4.9 % (dielectric: Cycles scales the
+        # Cycles' samples (ours twice as many). At 2048 each measured error stays under half its
+        # bound (docs/accuracy.md) in half the time of 4096 (CI's budget); the metal's
+        # highlight is noisier (1.66 % of its 2 % at 2048), so it keeps 4096.
+        ("diffuse", False, 0, 0.02, 2048),  # the issue's bound for Lambertian
+        ("glossy", False, 0, 0.05, 2048),  # the issue's bound for GGX
+        ("diffuse", True, 0, 0.03, 2048),  # the sphere shadows the ground plane
+        ("diffuse", True, 2, 0.04, 2048),  # and the two light each other up
+        # Non-BTF materials through the analytic Principled model; measured 1.05 % (metal:
+        # Schlick = Cycles' F82 with a white tint) and 3.0 % (dielectric: Cycles scales the
         # diffuse by the specular layer's directional albedo, we by 1 − Schlick(cos θo)).
-        ("principled-metal", False, 0, 0.02),
-        ("glossy-node", False, 0, 0.05),  # no BTF: the Glossy BSDF node itself is read
-        ("principled-dielectric", False, 0, 0.07),
+        ("principled-metal", False, 0, 0.02, 4096),
+        ("glossy-node", False, 0, 0.05, 2048),  # no BTF: the Glossy BSDF node itself is read
+        ("principled-dielectric", False, 0, 0.07, 2048),
     ],
 )
-def test_matches_cycles(bpy_module, fresh_scene, tmp_path, kind, ground, bounces, bound):
+def test_matches_cycles(bpy_module, fresh_scene, tmp_path, kind, ground, bounces, bound, samples):
     if kind in BTF_ONLY and bpy_module.app.version < (5, 0, 0):
         pytest.skip(
             "a BTF material reads no Blender material nodes: the same comparison on every "
             "Blender, run where the whole suite runs (5.0, 5.3; CI's time budget)"
         )
-    samples = 4096
     bpy = bpy_module
     scene = build(bpy, tmp_path, kind, ground)
     reference = cycles_reference(bpy, scene, tmp_path, samples, bounces)
