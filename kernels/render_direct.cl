@@ -255,6 +255,18 @@ inline float3 clamp_indirect(float3 light, float limit)
 /* The Sobol dimension of the film's 2D point: far beyond any path's own decisions. */
 #define FILM_DIMENSION 0xFFFFu
 
+/* Adaptive sampling's half buffer (render/adaptive.py): whether sample `index` is one of the
+ * half whose mean is compared with the mean of all. Cycles' class A (Christensen et al.,
+ * "Progressive Multi-Jittered Sample Sequences", §10.2.1): the parity of the odd bits, so each
+ * aligned block of 4 is split 2 : 2 and both halves stay well stratified in every Sobol
+ * dimension (odd indices alone would all lie in one half of the first dimension). Counted in
+ * camera-ray groups where samples share a ray, so that the halves differ by their edges too. */
+inline bool in_half(uint index, int camera_split, int filtered)
+{
+  uint unit = filtered ? index / (uint)camera_split : index;
+  return (popcount(unit & 0xAAAAAAAAu) & 1u) != 0u;
+}
+
 __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *world_from_clip, const int tri_count,
                              __global const float *bounds, __global const int *links,
@@ -271,7 +283,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              const int max_bounces, const float indirect_limit,
                              const int camera_split, const int filtered,
                              __global const float *filter_table,
-                             const int transparent, __global float *combined)
+                             const int transparent, __global float *combined,
+                             __global float *half_sums, __global const uchar *active,
+                             const int adaptive)
 {
   int x = get_global_id(0), yr = get_global_id(1);
   int y = row0 + yr;
@@ -279,6 +293,13 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     return;
   }
   int px = yr * width + x;
+  /* Adaptive sampling: `half_sums` gets the sum of the launch's samples in_half and their count;
+   * a pixel that has converged (active 0, a whole-image mask) costs nothing more. */
+  if (adaptive && !active[y * width + x]) {
+    vstore4((float4)(0.0f), px, combined);
+    vstore4((float4)(0.0f), px, half_sums);
+    return;
+  }
   float3 o, d;
   float t, bu, bv;
   /* Anti-aliasing (filtered): a camera ray through its own point of the pixel filter's
@@ -293,9 +314,16 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                      : primary_hit(x, y, width, height, world_from_clip, tri_count, bounds,
                                    links, corners, &o, &d, &t, &bu, &bv);
   if (!filtered && tri < 0) { /* Film › Transparent: premultiplied 0, as Cycles */
-    vstore4(transparent ? (float4)(0.0f)
-                        : (float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f),
-            px, combined);
+    float4 world = transparent ? (float4)(0.0f)
+                               : (float4)(env_lookup(env, env_w, env_h, env_params, d), 1.0f);
+    vstore4(world, px, combined);
+    if (adaptive) { /* every sample sees the same World: the half's mean is the same */
+      int halved = 0;
+      for (int si = 0; si < samples; si++) {
+        halved += in_half((uint)(first_sample + si), camera_split, filtered);
+      }
+      vstore4((float4)(world.xyz * (float)halved, (float)halved), px, half_sums);
+    }
     return;
   }
   SurfacePoint sp;
@@ -306,8 +334,15 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   uint pixel_seed = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
   int hits = 0; /* samples whose camera ray met a surface: Film › Transparent's alpha */
+  float3 half_sum = (float3)(0.0f);
+  int half_count = 0;
   for (int si = 0; si < samples; si++) {
     uint index = (uint)(first_sample + si); /* a sample's points depend only on its index */
+    /* The sample's own light is sum - before: `sum` adds as it always did, so an image with
+     * adaptive sampling off is bit for bit the one of before. */
+    float3 before = sum;
+    bool halved = adaptive && in_half(index, camera_split, filtered);
+    half_count += halved;
     Sampler smp = {pixel_seed, index, 0u, pcg_hash(pixel_seed + index)};
     /* A launch may start inside a group: its first sample traces the group's ray again. */
     if (filtered && (si == 0 || index % (uint)camera_split == 0u)) {
@@ -323,6 +358,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
     if (filtered && tri < 0) {
       if (!transparent) {
         sum += env_lookup(env, env_w, env_h, env_params, d);
+      }
+      if (halved) {
+        half_sum += sum - before;
       }
       continue;
     }
@@ -412,7 +450,13 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       }
     }
     sum += clamp_indirect(indirect, indirect_limit);
+    if (halved) {
+      half_sum += sum - before;
+    }
   }
   float alpha = transparent ? (float)hits / (float)max(samples, 1) : 1.0f;
   vstore4((float4)(sum / (float)max(samples, 1), alpha), px, combined);
+  if (adaptive) {
+    vstore4((float4)(half_sum, (float)half_count), px, half_sums);
+  }
 }

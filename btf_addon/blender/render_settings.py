@@ -120,6 +120,25 @@ class BTFRenderSettings(PropertyGroup):
         "point each their own way; the same image in the end, reached in less time where "
         "lighting is noisier than edges (1: a camera ray per sample, as Cycles)",
     )
+    use_adaptive_sampling: BoolProperty(
+        name="Adaptive Sampling",
+        default=True,
+        description="Sampled final render: pixels whose noise has fallen below the Noise "
+        "Threshold stop taking samples, so the time goes where the image is noisy (as Cycles' "
+        "Adaptive Sampling); files made before it open with it off",
+    )
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold",
+        default=0.01,
+        min=0.0,
+        max=1.0,
+        soft_min=0.001,
+        step=0.1,
+        precision=4,
+        description="Adaptive sampling: the noise a pixel may keep, as Cycles' Noise Threshold "
+        "(lower: less noise, more time); pixels take at least min(16 / threshold^0.3, "
+        "samples / 4) samples first; 0: every pixel takes every sample",
+    )
     fixed_launch_split: BoolProperty(
         name="Fixed Launch Split",
         default=False,

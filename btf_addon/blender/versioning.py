@@ -25,8 +25,8 @@ from bpy.props import IntProperty
 #: The settings version this code writes. 0: files saved before versioning (issue 14); 2: the
 #: VR session and the XTAL bridge share their settings' defaults (vr/headset_settings.py); 3: the
 #: Sampled F12 clamps indirect light by default (issue 33); 4: its samples share camera rays,
-#: 4 to a ray, by default (issue 33).
-SETTINGS_VERSION = 4
+#: 4 to a ray, by default (issue 33); 5: it samples adaptively by default (issue 33).
+SETTINGS_VERSION = 5
 
 
 class Upgrade(NamedTuple):
@@ -53,6 +53,8 @@ UPGRADES = (
     Upgrade(3, "scene", "btf_render", "clamp_indirect", 0.0),
     # ... and trace a camera ray per sample, as they did.
     Upgrade(4, "scene", "btf_render", "samples_per_camera_ray", 1),
+    # ... and give every pixel every sample, as they did.
+    Upgrade(5, "scene", "btf_render", "use_adaptive_sampling", False),
 )
 
 

@@ -37,6 +37,7 @@ def render_frame(
     renderer.importance_sampling = settings.btf_importance_sampling
     renderer.clamp_indirect = settings.clamp_indirect
     renderer.samples_per_camera_ray = settings.samples_per_camera_ray
+    renderer.adaptive_threshold = settings.noise_threshold
     renderer.transparent = transparent
     if not settings.sampled:
         return renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)

@@ -29,6 +29,7 @@ from ..core.codecs.gpu_fit import fit_for_gpu
 from ..core.codecs.packed import pack
 from ..core.sampling.btf_importance import sampled_by_table
 from ..core.sampling.envmap import VirtualLights
+from ..render.adaptive import AdaptiveSampling
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
@@ -67,7 +68,54 @@ class RenderPasses:
     uv: np.ndarray
 
 
+class AdaptiveFilm:
+    """The host half of adaptive sampling for one Sampled render (render/adaptive.py has the
+    rule): the whole image's half sums and which pixels still sample, the device's mask of them
+    (read by every launch) and the band buffer the kernel writes the half into."""
+
+    def __init__(self, renderer: CLRenderer, schedule: AdaptiveSampling, max_rows: int):
+        cl = renderer.cl
+        h, w = renderer.height, renderer.width
+        self.renderer, self.schedule = renderer, schedule
+        self.active = np.ones((h, w), bool)
+        self.half = np.zeros((h, w, 4), np.float32)  # RGB sum of the half, and its count
+        self.half_buffer = cl.Buffer(
+            renderer.ctx.context, cl.mem_flags.WRITE_ONLY, max_rows * w * 16
+        )
+        self.mask = renderer._buffer(self.active.ravel(), np.uint8)
+
+    def kernel_args(self) -> list:
+        """render_env_mis's last arguments after ``combined``: half, active, adaptive."""
+        return [self.half_buffer, self.mask, np.int32(1)]
+
+    def gather(self, row0: int, rows: int) -> None:
+        """Add the launch's half sums for rows [row0, row0 + rows) (0 where a pixel stopped)."""
+        w = self.renderer.width
+        host = np.empty((rows, w, 4), dtype=np.float32)
+        self.renderer.cl.enqueue_copy(self.renderer.ctx.queue, host, self.half_buffer)
+        self.half[row0 : row0 + rows] += host
+
+    def check(self, sums: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """After a pass: stop the pixels that converged, send the mask to the device and return
+        (h,) the active pixels per row. ``sums``: (h, w, 4) sums of every sample; ``counts``:
+        (h, w) samples per pixel."""
+        n = np.maximum(counts, 1)[..., None].astype(np.float32)
+        half_n = np.maximum(self.half[..., 3:], 1.0)
+        self.active = self.schedule.still_active(
+            self.active, sums[..., :3] / n, self.half[..., :3] / half_n, self.half[..., 3], counts
+        )
+        self.mask = self.renderer._buffer(self.active.ravel(), np.uint8)
+        return self.active.sum(axis=1)
+
+
 class CLRenderer:
+    #: The Sampled mode's Noise Threshold (render/adaptive.py): pixels whose noise estimate
+    #: falls below it stop taking samples; 0: off, every pixel takes every sample. F12 sets
+    #: the scene's (render_frame); a renderer used on its own samples every pixel fully.
+    adaptive_threshold: float = 0.0
+    #: (h, w) int64: the samples each pixel of the last render_sampled took.
+    sample_counts: np.ndarray | None = None
+
     def __init__(
         self,
         scene: Scene,
@@ -269,7 +317,14 @@ class CLRenderer:
         return (-(-self.width // lx) * lx, rows)
 
     def _render_in_launches(
-        self, launch, channels: tuple[int, ...], progress, samples: int = 1, preview=None
+        self,
+        launch,
+        channels: tuple[int, ...],
+        progress,
+        samples: int = 1,
+        preview=None,
+        plan: LaunchPlan | None = None,
+        film: AdaptiveFilm | None = None,
     ) -> list[np.ndarray]:
         """Render in launches of (rows, samples) planned by render/launch.py from measured cost,
         so that each takes about LAUNCH_SECONDS however heavy a pixel is (lights, samples,
@@ -281,21 +336,26 @@ class CLRenderer:
         PASS_SECONDS); ``preview(images)`` sees the image after every pass (read it during the
         call: the arrays may be reused). ``progress``
         returning False stops: rows keep the samples they have (rows never reached stay black).
-        Returns (h, w, k) arrays averaged over every sample rendered."""
+        ``plan``: the launches (default: ``samples`` samples by the renderer's split);
+        ``film``: adaptive sampling, whose check after a pass stops converged pixels.
+        Returns (h, w, k) arrays averaged over every sample rendered; ``sample_counts`` holds
+        (h, w) the samples each pixel took."""
         cl = self.cl
         w, h = self.width, self.height
-        plan = LaunchPlan(w, h, samples, fixed=self.fixed_launch_split)
+        if plan is None:
+            plan = LaunchPlan(w, h, samples, fixed=self.fixed_launch_split)
         mf = cl.mem_flags
         buffers = [
             cl.Buffer(self.ctx.context, mf.WRITE_ONLY, plan.max_rows * w * 4 * k) for k in channels
         ]
         sums = [np.zeros((h, w, k), np.float32) for k in channels]
-        counts = np.zeros(h, np.int64)  # samples rendered per row
+        counts = np.zeros((h, w), np.int64)  # samples rendered per pixel
+        self.sample_counts = counts
 
         def images():
             if counts.max() <= 1:  # one sample (the deterministic mode): sums are the means
                 return sums
-            weight = (1.0 / np.maximum(counts, 1)).astype(np.float32)[:, None, None]
+            weight = (1.0 / np.maximum(counts, 1)).astype(np.float32)[..., None]
             return [total * weight for total in sums]
 
         for step in plan:
@@ -305,9 +365,16 @@ class CLRenderer:
             for buf, total in zip(buffers, sums, strict=True):
                 host = np.empty((step.rows, w, total.shape[2]), dtype=np.float32)
                 cl.enqueue_copy(self.ctx.queue, host, buf)  # waits for the kernel
-                total[rows] += host * count
-            counts[rows] += count
+                total[rows] += host * count  # stopped pixels wrote 0: their sums stay
+            if film is None:
+                counts[rows] += count
+            else:
+                film.gather(step.row0, step.rows)
+                counts[rows] += count * film.active[rows]
             plan.record(step, time.perf_counter() - t0)
+            if film is not None and step.ends_pass:
+                if film.schedule.checks_at(step.first_sample + count):
+                    plan.set_active_rows(film.check(sums[0], counts))
             if progress is not None and not progress(step.done):
                 return images()
             if preview is not None and step.ends_pass and not step.last:
@@ -385,7 +452,9 @@ class CLRenderer:
         drawn with the filter's distribution (the mean converges to the filtered image).
         Measured BTFs are sampled by their tables unless ``importance_sampling`` is False;
         a path's indirect light is clamped at ``clamp_indirect`` when it is above 0; with a
-        film, ``samples_per_camera_ray`` consecutive samples share a camera ray."""
+        film, ``samples_per_camera_ray`` consecutive samples share a camera ray. With an
+        ``adaptive_threshold`` above 0, pixels whose noise falls below it stop early
+        (render/adaptive.py); ``sample_counts`` says how many samples each pixel took."""
         w, h = self.width, self.height
         want = self.importance_sampling and any(
             sampled_by_table(m.btf) for m in self.scene.materials
@@ -401,6 +470,23 @@ class CLRenderer:
             self.filter_table,
             np.int32(self.transparent),
         ]
+        schedule = AdaptiveSampling.for_render(self.adaptive_threshold, samples)
+        plan = LaunchPlan(
+            w,
+            h,
+            samples,
+            fixed=self.fixed_launch_split,
+            next_check=None if schedule is None else schedule.next_check,
+        )
+        adaptive = None if schedule is None else AdaptiveFilm(self, schedule, plan.max_rows)
+
+        # Adaptive sampling off: the kernel neither reads nor writes these.
+        idle = [self._buffer(np.zeros(4), np.float32), self._buffer(np.zeros(1), np.uint8)]
+
+        def adaptive_args() -> list:
+            if adaptive is None:
+                return [*idle, np.int32(0)]
+            return adaptive.kernel_args()  # its mask changes after every check
 
         def launch(row0, band, first, count, buffers):
             self.kernel_mis(
@@ -421,8 +507,11 @@ class CLRenderer:
                 np.int32(max(int(self.samples_per_camera_ray), 1)),
                 *film_args,
                 *buffers,
+                *adaptive_args(),
             )
 
         show = None if preview is None else (lambda images: preview(images[0]))
-        (combined,) = self._render_in_launches(launch, (4,), progress, samples, show)
+        (combined,) = self._render_in_launches(
+            launch, (4,), progress, samples, show, plan=plan, film=adaptive
+        )
         return combined

@@ -119,6 +119,13 @@ def add_parser(sub) -> None:
         "fireflies, a little bias; 0: off)",
     )
     p.add_argument(
+        "--noise-threshold",
+        type=_noise_threshold,
+        metavar="T",
+        help="Sampled mode: adaptive sampling, pixels whose noise falls below T stop taking "
+        "samples (Cycles' Noise Threshold, default 0.01 in new scenes); 0: off",
+    )
+    p.add_argument(
         "--seed", type=_at_least(0), metavar="N", help="randomisation of lights and samples' points"
     )
     p.add_argument(
@@ -191,6 +198,15 @@ def _non_negative(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
     if not (0.0 <= value < float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number of at least 0, got {text}")
+    return value
+
+
+def _noise_threshold(text: str) -> float:
+    """A number in [0, 1] (the Noise Threshold property's range), refused by argparse (exit 2)
+    before Blender starts."""
+    value = _non_negative(text)
+    if value > 1.0:
+        raise argparse.ArgumentTypeError(f"must be at most 1, got {text}")
     return value
 
 
@@ -282,10 +298,19 @@ def overrides(args) -> dict:
         "max_bounces": args.bounces,
         "clamp_indirect": args.clamp_indirect,
         "samples_per_camera_ray": args.samples_per_camera_ray,
+        **_adaptive_overrides(args.noise_threshold),
         "seed": args.seed,
         "fixed_launch_split": args.fixed_launch_split,
         "btf_importance_sampling": args.btf_importance_sampling,
     }
+
+
+def _adaptive_overrides(threshold: float | None) -> dict:
+    """``--noise-threshold T`` in the settings' words: T > 0 turns adaptive sampling on at T,
+    0 turns it off (the scene's threshold kept for when it is turned on again)."""
+    if threshold is None:
+        return {"use_adaptive_sampling": None, "adaptive_threshold": None}
+    return {"use_adaptive_sampling": threshold > 0, "adaptive_threshold": threshold or None}
 
 
 def cmd_render(args) -> int:
@@ -339,6 +364,7 @@ F12_ONLY = {
     "bounces": "--bounces",
     "clamp_indirect": "--clamp-indirect",
     "samples_per_camera_ray": "--samples-per-camera-ray",
+    "noise_threshold": "--noise-threshold",
     "device": "--device",
     "btf_importance_sampling": "--no-btf-importance",
 }
@@ -401,9 +427,11 @@ def describe(settings: RenderSettings) -> str:
     if settings.lighting is Lighting.HEADLIGHT:
         return "the headlight"
     if settings.sampled:
+        adaptive = settings.noise_threshold
+        stops = f", noise threshold {adaptive:g}" if adaptive else ""
         return (
             f"the environment sampled, {settings.samples} samples per pixel, "
-            f"{settings.max_bounces} bounces (seed {settings.seed})"
+            f"{settings.max_bounces} bounces{stops} (seed {settings.seed})"
         )
     return f"{settings.lights_total} virtual lights (seed {settings.seed})"
 

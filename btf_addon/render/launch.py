@@ -14,12 +14,17 @@ Fixed split (``fixed=True``, or ``BTF_FIXED_LAUNCHES=1`` in the environment): la
 FIXED_LAUNCH_PIXELS pixels' rows × FIXED_LAUNCH_SAMPLES samples whatever the timings, so a frame
 is bit-identical between runs and machines with the same device (farms that diff frames). The
 measured split is not: which samples share a launch changes the float rounding of the sums.
+
+Adaptive sampling (render/adaptive.py): passes end at the sample counts where convergence is
+checked (``next_check``), the caller tells the plan after a check how many pixels of each row
+are still active (``set_active_rows``), and later passes launch only runs of rows that have
+one; ``done`` counts the work of the active pixels, so progress follows the work actually left.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +48,9 @@ class Launch:
     """Rows [row0, row0 + rows) for samples [first_sample, first_sample + samples).
 
     done: the fraction of all work finished once this launch is; ends_pass: the last launch of
-    a pass over the image; last: the last launch of the whole render."""
+    a pass over the image; last: the last launch of the whole render (with adaptive sampling a
+    pass may also end the render when every pixel has converged); pixels: the active pixels in
+    these rows (all of them unless adaptive sampling stopped some)."""
 
     row0: int
     rows: int
@@ -52,6 +59,7 @@ class Launch:
     done: float
     ends_pass: bool
     last: bool
+    pixels: int = 0
 
 
 class LaunchPlan:
@@ -71,8 +79,14 @@ class LaunchPlan:
         launch_seconds: float | None = None,
         pass_seconds: float | None = None,
         fixed: bool | None = None,
+        next_check: Callable[[int], int | None] | None = None,
     ):
         self.width, self.height, self.samples = width, height, samples
+        #: Adaptive sampling: the sample count of the first convergence check after a given
+        #: count (None: no more checks); passes end there. None: no adaptive sampling.
+        self.next_check = next_check
+        self._active = np.full(height, width, np.int64)  # active pixels per row
+        self._active_after = self._suffix(self._active)
         band_pixels = BAND_PIXELS if band_pixels is None else band_pixels
         first_pixels = FIRST_LAUNCH_PIXELS if first_launch_pixels is None else first_launch_pixels
         self.launch_seconds = LAUNCH_SECONDS if launch_seconds is None else launch_seconds
@@ -87,24 +101,49 @@ class LaunchPlan:
         if self.fixed:
             self._rows = max(1, min(self.max_rows, FIXED_LAUNCH_PIXELS // max(width, 1)))
 
+    @staticmethod
+    def _suffix(active: np.ndarray) -> np.ndarray:
+        """(h + 1,) active pixels in rows [r, h) for every r."""
+        return np.concatenate([np.cumsum(active[::-1])[::-1], [0]])
+
+    def set_active_rows(self, pixels_per_row: np.ndarray) -> None:
+        """After a convergence check: (h,) how many pixels of each row still take samples. The
+        passes after it launch only rows with at least one; call it between passes."""
+        self._active = np.asarray(pixels_per_row, np.int64)
+        self._active_after = self._suffix(self._active)
+
     def record(self, launch: Launch, seconds: float) -> None:
         """The measured duration of ``launch``: sizes the launches after it."""
-        w = self.width
-        measured = max(seconds, 1e-6) / (launch.rows * w * launch.samples)
+        # The cost of the active pixels: inactive ones return at once (kernels/render_direct.cl).
+        pixels = launch.pixels or launch.rows * self.width
+        measured = max(seconds, 1e-6) / (pixels * launch.samples)
         # A decaying maximum: a slow launch counts at once, a fast one lowers the estimate
         # at most by half, so one cheap band cannot make the next launch far too long.
         self.cost = measured if self.cost is None else max(measured, 0.5 * self.cost)
         self._last_work = launch.rows * launch.samples
 
     def _samples_per_launch(self, first: int) -> int:
+        # A pass ends at the next convergence check (Cycles' align_samples).
+        check = self.next_check(first) if self.next_check is not None else None
+        last = self.samples if check is None else min(check, self.samples)
         if self.fixed:
-            return min(FIXED_LAUNCH_SAMPLES, self.samples - first)
+            return min(FIXED_LAUNCH_SAMPLES, last - first)
         if self.cost is None:
             return 1
         w, h = self.width, self.height
         per_pass = self.pass_seconds / (self.cost * w * h)
         per_row = self.launch_seconds / (self.cost * w)
-        return int(np.clip(min(per_pass, per_row), 1, self.samples - first))
+        return int(np.clip(min(per_pass, per_row), 1, last - first))
+
+    def _next_active_row(self, row: int) -> int:
+        """The first row at or after ``row`` with an active pixel; ``height`` if none."""
+        ahead = np.flatnonzero(self._active[row:])
+        return row + int(ahead[0]) if len(ahead) else self.height
+
+    def _active_run(self, row0: int, limit: int) -> int:
+        """How many rows from ``row0`` (active) on, at most ``limit``, have active pixels."""
+        idle = np.flatnonzero(self._active[row0 : row0 + limit] == 0)
+        return int(idle[0]) if len(idle) else min(limit, self.height - row0)
 
     def _rows_for(self, count: int) -> int:
         if self.cost is not None and not self.fixed:
@@ -118,20 +157,28 @@ class LaunchPlan:
     def __iter__(self) -> Iterator[Launch]:
         h, samples = self.height, self.samples
         first = 0
-        while first < samples:
+        finished = 0  # pixel-samples launched so far
+        while first < samples and self._active_after[0] > 0:
             count = self._samples_per_launch(first)
-            row0 = 0
+            row0 = self._next_active_row(0)
             while row0 < h:
-                band = min(self._rows_for(count), h - row0)
+                band = self._active_run(row0, self._rows_for(count))
                 end = row0 + band
+                pixels = int(self._active_after[row0] - self._active_after[end])
+                finished += pixels * count
+                # Left: this pass's active rows below, then every active pixel's later samples.
+                left = int(self._active_after[end]) * count
+                left += int(self._active_after[0]) * (samples - first - count)
+                after = self._next_active_row(end)
                 yield Launch(
                     row0=row0,
                     rows=band,
                     first_sample=first,
                     samples=count,
-                    done=(first * h + end * count) / (samples * h),
-                    ends_pass=end == h,
-                    last=end == h and first + count >= samples,
+                    done=finished / (finished + left),
+                    ends_pass=after == h,
+                    last=after == h and first + count >= samples,
+                    pixels=pixels,
                 )
-                row0 = end
+                row0 = after
             first += count

@@ -6,12 +6,19 @@ so ``Lighting[prop.lighting]`` and ``member.name`` convert both ways without tab
 from __future__ import annotations
 
 import enum
+import struct
 from dataclasses import dataclass, fields, replace
 
 from .pixel_filter import PixelFilter
 
 #: Fields that live on the scene's film (``scene.cycles``), not on ``scene.btf_render``.
 FILM_FIELDS = ("pixel_filter", "filter_width")
+
+
+def blender_float(value: float) -> float:
+    """``value`` as a Blender FloatProperty holds it (float32): what a scene reads back, so a
+    default that float32 cannot hold exactly (0.01) is written as this to compare equal."""
+    return struct.unpack("f", struct.pack("f", value))[0]
 
 
 class Lighting(enum.Enum):
@@ -62,6 +69,11 @@ class RenderSettings:
     # pixel filter (1: a ray each, as files saved before it): the same image in the limit,
     # reached sooner (docs/accuracy.md, "Samples per camera ray").
     samples_per_camera_ray: int = 4
+    # Adaptive sampling of the Sampled mode (Cycles' Noise Threshold, its meaning and defaults;
+    # render/adaptive.py): pixels whose noise estimate falls below the threshold stop taking
+    # samples. Off in files saved before it, which render as they did.
+    use_adaptive_sampling: bool = True
+    adaptive_threshold: float = blender_float(0.01)
     pixel_filter: str = "BLACKMAN_HARRIS"  # scene.cycles.pixel_filter_type where Cycles is on
     filter_width: float = 1.5  # pixels, scene.cycles.filter_width
 
@@ -70,6 +82,11 @@ class RenderSettings:
         if not self.use_antialiasing:
             return None
         return PixelFilter(self.pixel_filter, self.filter_width)
+
+    @property
+    def noise_threshold(self) -> float:
+        """The Noise Threshold the Sampled render stops pixels at; 0: adaptive sampling off."""
+        return self.adaptive_threshold if self.use_adaptive_sampling else 0.0
 
     @property
     def sampled(self) -> bool:

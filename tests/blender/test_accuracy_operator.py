@@ -65,11 +65,12 @@ def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fres
     assert bpy.ops.btf.estimate_quality() == {"FINISHED"}
     data = json.loads(scene.btf_accuracy.report)
     assert data["preview_size"] == [16, 11] and data["full_size"] == [48, 32]
-    # 22 rungs: the scene's own 24 lights join the lights sweep (4, 16, 24, 64, 256, 1024);
+    # 25 rungs: the scene's own 24 lights join the lights sweep (4, 16, 24, 64, 256, 1024);
     # per final mode anti-aliasing off and the other texel filter, for Virtual Lights 1 and 4
-    # anti-aliasing subpixels beside the scene's 16, for Sampled Clamp Indirect off beside 10
-    # and 1 sample per camera ray beside 4.
-    assert data["rungs_done"] == data["rungs_total"] == 22 and data["budget_seconds"] == 30.0
+    # anti-aliasing subpixels beside the scene's 16, for Sampled Clamp Indirect off beside 10,
+    # 1 sample per camera ray beside 4, adaptive sampling off, and Noise Thresholds 0.005 and
+    # 0.05 beside 0.01.
+    assert data["rungs_done"] == data["rungs_total"] == 25 and data["budget_seconds"] == 30.0
     rec = data["recommendation"]
     assert rec is not None and rec["predicted_seconds"] <= 30.0
     assert rec["rmse"] == min(p["rmse"] for p in data["points"])  # everything fits 30 s here

@@ -92,6 +92,7 @@ def test_every_rung_on_one_renderer_as_on_its_own_before(
         if settings.sampled:
             own.clamp_indirect = settings.clamp_indirect
             own.samples_per_camera_ray = settings.samples_per_camera_ray
+            own.adaptive_threshold = settings.noise_threshold
             own.render_direct(lights.prefix(1))
             image = own.render_sampled(
                 settings.samples, settings.seed, max_bounces=settings.max_bounces

@@ -78,10 +78,11 @@ def test_accuracy_report_of_a_small_scene(tmp_path):
     assert "recommended: " in proc.stdout and "at 64x48" in proc.stdout
     data = json.loads((out / "report.json").read_text())
     assert data["preview_size"] == [24, 18] and data["full_size"] == [64, 48]
-    # 21: lights 5 + samples 5 + bounces 3, anti-aliasing off and the other texel filter per
+    # 24: lights 5 + samples 5 + bounces 3, anti-aliasing off and the other texel filter per
     # final mode (4), 1 and 4 subpixels beside the default 16 for Virtual Lights (2), Clamp
-    # Indirect off beside the default 10 and 1 sample per camera ray beside 4 for Sampled (2).
-    assert data["rungs_done"] == data["rungs_total"] == 21 and not data["interrupted"]
+    # Indirect off beside the default 10, 1 sample per camera ray beside 4, adaptive sampling
+    # off and Noise Thresholds 0.005 and 0.05 beside 0.01 for Sampled (5).
+    assert data["rungs_done"] == data["rungs_total"] == 24 and not data["interrupted"]
     errors = {(p["series"], tuple(p["knobs"].values())): p["rmse"] for p in data["points"]}
     # Knobs do what they should against the reference: more samples → less error (1 → 64:
     # noise falls 8×; the reference's own noise is under a third of the 64-sample rung's);
@@ -113,6 +114,8 @@ def test_accuracy_report_of_a_small_scene(tmp_path):
             "seed": "--seed",
         }
         args = [a for name, flag in flags.items() for a in (flag, str(settings[name]).lower())]
+        adaptive = settings["use_adaptive_sampling"] and settings["adaptive_threshold"]
+        args += ["--noise-threshold", str(adaptive or 0)]  # 0: off, as the reference
         run_cli("render", "--blend", blend, "-o", path, *args)
         return read_exr(path)
 

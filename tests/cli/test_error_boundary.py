@@ -153,6 +153,9 @@ def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
         (["--clamp-indirect", "x"], "--clamp-indirect: must be a number"),
         (["--samples-per-camera-ray", "0"], "--samples-per-camera-ray: must be at least 1"),
         (["--samples-per-camera-ray", "17"], "--samples-per-camera-ray: must be at most 16"),
+        (["--noise-threshold", "-0.1"], "--noise-threshold: must be a finite number of at least 0"),
+        (["--noise-threshold", "2"], "--noise-threshold: must be at most 1"),
+        (["--noise-threshold", "x"], "--noise-threshold: must be a number"),
     ],
 )
 def test_render_flags_out_of_range_are_refused_before_blender(tmp_path, args, message):

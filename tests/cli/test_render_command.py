@@ -165,3 +165,40 @@ def test_samples_per_camera_ray_flag_reaches_f12(tmp_path):
                 "--samples-per-camera-ray", split, "-o", out)  # fmt: skip
         images[split] = read_exr(out)[..., :3]
     assert not np.array_equal(images["1"], images["8"])
+
+
+@pytest.mark.parametrize(
+    ("flag", "expected"),
+    [
+        (None, {"use_adaptive_sampling": None, "adaptive_threshold": None}),  # the scene's
+        ("0.05", {"use_adaptive_sampling": True, "adaptive_threshold": 0.05}),
+        ("0", {"use_adaptive_sampling": False, "adaptive_threshold": None}),  # its threshold kept
+    ],
+)
+def test_noise_threshold_flag_in_the_settings_words(flag, expected):
+    """`--noise-threshold T` → the two settings Blender's panel shows (no Blender here)."""
+    import argparse
+
+    from btf_addon.cli.render_command import add_parser, overrides
+
+    parser = argparse.ArgumentParser()
+    add_parser(parser.add_subparsers())
+    args = ["render", "--demo", "-o", "x.exr"] + (
+        [] if flag is None else ["--noise-threshold", flag]
+    )
+    given = overrides(parser.parse_args(args))
+    assert {k: given[k] for k in expected} == expected
+
+
+def test_noise_threshold_flag_reaches_f12(tmp_path):
+    """`--noise-threshold T` is the scene's adaptive sampling for this render: said in the
+    summary line, and a high threshold stops pixels that 0 (off) renders fully, so the images
+    differ; what stopping means is checked in tests/kernels/test_adaptive_sampling.py."""
+    images = {}
+    for threshold in ("0", "0.1"):
+        out = tmp_path / f"t-{threshold}.exr"
+        proc = run_cli("render", "--demo", "--resolution", "48x27", "--samples", "64",
+                       "--noise-threshold", threshold, "-o", out)  # fmt: skip
+        assert ("noise threshold 0.1" in proc.stdout) == (threshold == "0.1"), proc.stdout
+        images[threshold] = read_exr(out)[..., :3]
+    assert not np.array_equal(images["0"], images["0.1"])

@@ -57,10 +57,12 @@ def built_for(cl_context, scene, settings, texel_filter):
 
 def old_sequence(renderer, settings, lights):
     """F12's calls as blender/final_render.py made them before render_frame existed (with the
-    Sampled mode's options issue 33 added: Clamp Indirect, Samples per Camera Ray)."""
+    Sampled mode's options issue 33 added: Clamp Indirect, Samples per Camera Ray, the Noise
+    Threshold of adaptive sampling)."""
     if settings.sampled:
         renderer.clamp_indirect = settings.clamp_indirect
         renderer.samples_per_camera_ray = settings.samples_per_camera_ray
+        renderer.adaptive_threshold = settings.noise_threshold
         passes = renderer.render_direct(lights.prefix(1))
         passes.combined = renderer.render_sampled(
             settings.samples, settings.seed, max_bounces=settings.max_bounces
@@ -171,6 +173,7 @@ def test_the_launch_options_come_from_the_settings(cl_context):
     assert (renderer.importance_sampling, renderer.fixed_launch_split) == (False, True)
     assert renderer.transparent is True
     assert renderer.samples_per_camera_ray == settings.samples_per_camera_ray == 4
+    assert renderer.adaptive_threshold == settings.noise_threshold == pytest.approx(0.01)
     by_hand = CLRenderer(scene, W, H, cl_context)
     by_hand.importance_sampling, by_hand.fixed_launch_split, by_hand.transparent = (
         False,

@@ -82,6 +82,11 @@ class BTF_PT_render_settings(Panel):
         col = layout.column()
         col.active = values.final_mode is FinalMode.SAMPLED
         col.prop(settings, "samples")
+        row = col.row(heading="Noise Threshold")
+        row.prop(settings, "use_adaptive_sampling", text="")
+        sub = row.row()
+        sub.active = values.use_adaptive_sampling
+        sub.prop(settings, "adaptive_threshold", text="")
         row = col.row()
         row.active = values.use_antialiasing
         row.prop(settings, "samples_per_camera_ray")

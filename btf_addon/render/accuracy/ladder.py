@@ -39,7 +39,7 @@ import numpy as np
 
 from ...core import ssim
 from ...core.colour import srgb_encode
-from ..settings import FinalMode, Lighting, RenderSettings
+from ..settings import FinalMode, Lighting, RenderSettings, blender_float
 
 
 class Role(enum.Enum):
@@ -114,6 +114,19 @@ KNOBS: tuple[Knob, ...] = (
         "Samples per Camera Ray",
         (1, 4),
         lambda s: s.sampled and s.use_antialiasing,
+        Role.CLASS,
+    ),
+    # Adaptive sampling: off beside on, and on, what each Noise Threshold saves and costs
+    # (the samples a stopped pixel did not take, the noise it kept). A class: it changes the
+    # time per pixel·sample of the samples knob.
+    Knob(
+        "use_adaptive_sampling", "Adaptive Sampling", (False, True), lambda s: s.sampled, Role.CLASS
+    ),
+    Knob(
+        "adaptive_threshold",
+        "Noise Threshold",
+        tuple(blender_float(t) for t in (0.005, 0.01, 0.05)),  # as a scene holds them
+        lambda s: s.sampled and s.use_adaptive_sampling,
         Role.CLASS,
     ),
 )
@@ -232,6 +245,7 @@ def reference_settings(base: RenderSettings, samples: int = 1024, bounces: int =
         samples=samples,
         max_bounces=max(bounces, base.max_bounces),
         clamp_indirect=0.0,  # unbiased: a clamp's bias is error
+        use_adaptive_sampling=False,  # every pixel converged alike
         seed=base.seed + 7919,
     )
 
@@ -668,6 +682,8 @@ _WORDS: dict[str, Callable[[Any], str]] = {
     "texel_filter": lambda v: f"{str(v).title()} texels",
     "clamp_indirect": lambda v: f"indirect clamped at {v:g}" if v else "no clamp",
     "samples_per_camera_ray": lambda v: f"{v} sample{'s' if v != 1 else ''} per camera ray",
+    "use_adaptive_sampling": lambda v: "adaptive sampling" if v else "no adaptive sampling",
+    "adaptive_threshold": lambda v: f"noise threshold {v:g}",
 }
 
 
