@@ -41,12 +41,32 @@
 #include "btf_filter.h"
 
 
+/* atan2(y, x) over the whole circle from the decode's polynomial atan (include/btf_angles.inc,
+ * |error| < 1.1e-7 rad): PoCL's scalar atan2 was a tenth of a path-traced sample's time. */
+inline float env_atan2(float y, float x)
+{
+  float ay = fabs(y), ax = fabs(x);
+  float hi = fmax(ay, ax), lo = fmin(ay, ax);
+  float a = btf_atan_unit(hi > 0.0f ? lo / hi : 0.0f);
+  a = ay > ax ? M_PI_2_F - a : a;
+  a = signbit(x) ? M_PI_F - a : a; /* −0 too: atan2(±0, −0) = ±π */
+  return copysign(a, y);
+}
+
+/* cos and sin of the World's rotation; (1, 0) exactly for none, without the argument reduction
+ * of PoCL's cos/sin (most Worlds are not rotated). */
+inline float2 env_rotation(float angle)
+{
+  return angle == 0.0f ? (float2)(1.0f, 0.0f) : (float2)(cos(angle), sin(angle));
+}
+
 inline float3 env_lookup(__global const float *env, int w, int h, float2 params, float3 d)
 {
   /* As shaders/env_lib.glsl: Blender's orientation, bilinear, wrapping in u. */
-  float c = cos(params.x), s = sin(params.x);
+  float2 cs = env_rotation(params.x);
+  float c = cs.x, s = cs.y;
   float3 m = normalize((float3)(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
-  float u = (M_PI_F - atan2(m.y, m.x)) / (2.0f * M_PI_F);
+  float u = (M_PI_F - env_atan2(m.y, m.x)) / (2.0f * M_PI_F);
   float v = acos(clamp(m.z, -1.0f, 1.0f)) / M_PI_F;
   float fx = u * w - 0.5f, fy = clamp(v * h - 0.5f, 0.0f, (float)(h - 1));
   int x0 = (int)floor(fx), y0 = (int)floor(fy);
@@ -225,20 +245,24 @@ inline float3 env_direction(float s, float t, float rotation)
 {
   float theta = M_PI_F * t, phi = M_PI_F - 2.0f * M_PI_F * s;
   float3 m = (float3)(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
-  float c = cos(rotation), sn = sin(rotation); /* world = R(-rotation) · map */
+  float2 cs = env_rotation(rotation); /* world = R(-rotation) · map */
+  float c = cs.x, sn = cs.y;
   return (float3)(c * m.x + sn * m.y, -sn * m.x + c * m.y, m.z);
 }
 
 inline float env_pdf(__global const float *row_pdf, __global const float *col_pdf, int w, int h,
                      float rotation, float3 d, int *pixel)
 {
-  float c = cos(rotation), sn = sin(rotation);
+  float2 cs = env_rotation(rotation);
+  float c = cs.x, sn = cs.y;
   float3 m = (float3)(c * d.x - sn * d.y, sn * d.x + c * d.y, d.z);
-  float s = btf_mod((M_PI_F - atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
-  float t = acos(clamp(m.z, -1.0f, 1.0f)) / M_PI_F;
+  float s = btf_mod((M_PI_F - env_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
+  float z = clamp(m.z, -1.0f, 1.0f);
+  float t = acos(z) / M_PI_F;
   int col = min((int)(s * w), w - 1), row = min((int)(t * h), h - 1);
   *pixel = row * w + col;
-  float sin_t = fmax(sin(M_PI_F * t), 1e-9f);
+  /* sin θ = sin(acos z) = √((1 − z)(1 + z)): exact factors, no cancellation at the poles */
+  float sin_t = fmax(sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f)), 1e-9f);
   return row_pdf[row] * col_pdf[row * w + col] * w * h / (2.0f * M_PI_F * M_PI_F * sin_t);
 }
 
@@ -387,9 +411,13 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         __global const float *cc = col_cdf + row * (env_w + 1);
         int col = cdf_search(cc, env_w, u1);
         float ds = (u1 - cc[col]) / fmax(cc[col + 1] - cc[col], 1e-30f);
-        float3 dir = env_direction((col + clamp(ds, 0.0f, 0.999999f)) / env_w,
-                                   (row + clamp(dt, 0.0f, 0.999999f)) / env_h, rotation);
-        float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
+        float t_env = (row + clamp(dt, 0.0f, 0.999999f)) / env_h;
+        float3 dir = env_direction((col + clamp(ds, 0.0f, 0.999999f)) / env_w, t_env, rotation);
+        /* the density this draw was made with, from its own pixel: no round trip through
+         * env_pdf's atan2 and acos (the same value up to rounding at pixel edges) */
+        pixel = row * env_w + col;
+        float pdf_light = row_pdf[row] * col_pdf[pixel] * env_w * env_h /
+                          (2.0f * M_PI_F * M_PI_F * fmax(sin(M_PI_F * t_env), 1e-9f));
         float3 wi = to_frame(&cur, dir);
         float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
         bool visible = wi.z > 0.0f && pdf_light > 0.0f;

@@ -1,0 +1,112 @@
+"""The final render's environment maths (kernels/render_direct.cl) against float64 numpy:
+``env_atan2`` (the decode's polynomial atan over the whole circle, in place of PoCL's scalar
+atan2) and ``env_pdf`` (the solid-angle density of a direction and its pixel) against
+core/sampling/envmap.py ``Environment``, rotated and not, poles included."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from btf_addon.core.sampling.envmap import Environment
+
+TEST_KERNELS = """
+__kernel void atan2_test(__global const float *y, __global const float *x, __global float *out)
+{
+  int i = get_global_id(0);
+  out[i] = env_atan2(y[i], x[i]);
+}
+
+__kernel void pdf_test(__global const float *dirs, __global const float *row_pdf,
+                       __global const float *col_pdf, const int w, const int h,
+                       const float rotation, __global float *pdf, __global int *pixel)
+{
+  int i = get_global_id(0);
+  int p;
+  pdf[i] = env_pdf(row_pdf, col_pdf, w, h, rotation, vload3(i, dirs), &p);
+  pixel[i] = p;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def program(cl_context):
+    import pyopencl as cl
+
+    from btf_addon.cl.programs import KERNELS_DIR, build_defines, expand_includes
+    from btf_addon.cl.renderer import program_defines
+    from btf_addon.scene.analysis import SceneFeatures
+
+    # the real program's source with the test kernels appended, built with the real defines
+    features = SceneFeatures(shadows=True, environment_texture=True)
+    text = expand_includes(KERNELS_DIR / "render_direct.cl") + "\n" + TEST_KERNELS
+    options = [f"-D{k}={v}" for k, v in sorted(build_defines(program_defines(features)).items())]
+    return cl.Program(cl_context.context, text).build(options)
+
+
+def _run(cl_context, kernel, n, inputs, outputs):
+    import pyopencl as cl
+
+    mf = cl.mem_flags
+    ctx, queue = cl_context.context, cl_context.queue
+    args = []
+    for value in inputs:
+        if isinstance(value, np.ndarray):
+            value = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=value)
+        args.append(value)
+    out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes) for out in outputs]
+    kernel(queue, (n,), None, *args, *out_bufs)
+    for out, buf in zip(outputs, out_bufs, strict=True):
+        cl.enqueue_copy(queue, out, buf)
+
+
+def test_env_atan2_matches_libm_over_the_whole_circle(cl_context, program):
+    import pyopencl as cl
+
+    angles = np.linspace(-np.pi, np.pi, 40001)
+    radius = np.repeat([1e-30, 1e-3, 1.0, 7e4], len(angles) // 4 + 1)[: len(angles)]
+    y, x = (radius * np.sin(angles)), (radius * np.cos(angles))
+    # axes and signed zeros: atan2(±0, −1) = ±π, atan2(±0, +0) = ±0, (0, −0) → π
+    y = np.concatenate([y, [0.0, -0.0, 0.0, -0.0, 1.0, -1.0, 0.0, -0.0]]).astype(np.float32)
+    x = np.concatenate([x, [-1.0, -1.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0]]).astype(np.float32)
+    out = np.empty(len(y), np.float32)
+    _run(cl_context, cl.Kernel(program, "atan2_test"), len(y), [y, x], [out])
+    expected = np.arctan2(y.astype(np.float64), x.astype(np.float64))
+    # the polynomial's 1.1e-7 rad, plus float32 rounding of a result up to π (1.2e-7) and of
+    # π − a near ±π: 4e-7 rad, a 4e-8 of a turn (an environment pixel is 1/width of one).
+    np.testing.assert_allclose(out, expected, rtol=0, atol=4e-7)
+    assert np.array_equal(np.signbit(out[-8:]), np.signbit(expected[-8:]))
+
+
+@pytest.mark.parametrize("rotation", [0.0, 0.7, -2.5])
+def test_env_pdf_and_pixel_match_the_environment(cl_context, program, rotation):
+    import pyopencl as cl
+
+    rng = np.random.default_rng(5)
+    image = rng.gamma(0.5, 1.0, size=(64, 128, 3))
+    env = Environment(image, rotation_z_rad=rotation)
+    dirs = rng.normal(size=(20000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    poles = np.array([[0, 0, 1], [0, 0, -1], [1e-4, 0, 1], [0, -1e-4, -1]], dtype=np.float64)
+    dirs = np.concatenate([dirs, poles / np.linalg.norm(poles, axis=1, keepdims=True)])
+    n = len(dirs)
+    pdf, pixel = np.empty(n, np.float32), np.empty(n, np.int32)
+    tables = [a.astype(np.float32).ravel() for a in (env.row_pdf, env.col_pdf)]
+    _run(
+        cl_context,
+        cl.Kernel(program, "pdf_test"),
+        n,
+        [dirs.astype(np.float32).ravel(), *tables, np.int32(128), np.int32(64),
+         np.float32(rotation)],
+        [pdf, pixel],
+    )  # fmt: skip
+    row, col = env._pixel(*env.image_coords(dirs))
+    same = pixel == row * 128 + col
+    # float32 directions move a pixel boundary by ~1e-7 of a turn: a few of 20 000 at most
+    assert np.count_nonzero(~same) <= 20, np.count_nonzero(~same)
+    # Where the pixel agrees the density is the same up to float32 rounding. Within 0.001 of a
+    # pole it is not: sin θ there is √((1 − z)(1 + z)) of a z rounded to float32 (6e-8), so
+    # 1 − z carries 1e-4 of relative error in any float32 formula (sin(acos z) as before too).
+    away = same & (np.abs(dirs[:, 2]) < 0.999)
+    np.testing.assert_allclose(pdf[away], env.pdf(dirs)[away], rtol=2e-5)
+    assert np.all(np.isfinite(pdf)) and np.all(pdf > 0)  # the poles included
