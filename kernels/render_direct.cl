@@ -357,6 +357,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   float rotation = env_params.x;
   uint pixel_seed = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
+  float3 sky = (float3)(0.0f); /* the World seen by the current camera ray, where it misses */
   int hits = 0; /* samples whose camera ray met a surface: Film › Transparent's alpha */
   float3 half_sum = (float3)(0.0f);
   int half_count = 0;
@@ -378,10 +379,13 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       if (tri >= 0) {
         sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
       }
+      else if (!transparent) { /* looked up once for the group's samples, which all see it */
+        sky = env_lookup(env, env_w, env_h, env_params, d);
+      }
     }
     if (filtered && tri < 0) {
       if (!transparent) {
-        sum += env_lookup(env, env_w, env_h, env_params, d);
+        sum += sky;
       }
       if (halved) {
         half_sum += sum - before;
