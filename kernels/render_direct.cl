@@ -250,6 +250,15 @@ inline float3 env_direction(float s, float t, float rotation)
   return (float3)(c * m.x + sn * m.y, -sn * m.x + c * m.y, m.z);
 }
 
+/* The solid-angle density of the environment's sampling in one pixel, at sin θ of the point
+ * drawn (a pixel's image-plane density over the sphere's 2π² sin θ). */
+inline float env_pixel_pdf(__global const float *row_pdf, __global const float *col_pdf, int w,
+                           int h, int row, int col, float sin_t)
+{
+  return row_pdf[row] * col_pdf[row * w + col] * w * h /
+         (2.0f * M_PI_F * M_PI_F * fmax(sin_t, 1e-9f));
+}
+
 inline float env_pdf(__global const float *row_pdf, __global const float *col_pdf, int w, int h,
                      float rotation, float3 d, int *pixel)
 {
@@ -262,8 +271,8 @@ inline float env_pdf(__global const float *row_pdf, __global const float *col_pd
   int col = min((int)(s * w), w - 1), row = min((int)(t * h), h - 1);
   *pixel = row * w + col;
   /* sin θ = sin(acos z) = √((1 − z)(1 + z)): exact factors, no cancellation at the poles */
-  float sin_t = fmax(sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f)), 1e-9f);
-  return row_pdf[row] * col_pdf[row * w + col] * w * h / (2.0f * M_PI_F * M_PI_F * sin_t);
+  float sin_t = sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f));
+  return env_pixel_pdf(row_pdf, col_pdf, w, h, row, col, sin_t);
 }
 
 /* A path's indirect light (everything after its first bounce) scaled so that no channel exceeds
@@ -420,8 +429,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         /* the density this draw was made with, from its own pixel: no round trip through
          * env_pdf's atan2 and acos (the same value up to rounding at pixel edges) */
         pixel = row * env_w + col;
-        float pdf_light = row_pdf[row] * col_pdf[pixel] * env_w * env_h /
-                          (2.0f * M_PI_F * M_PI_F * fmax(sin(M_PI_F * t_env), 1e-9f));
+        float pdf_light = env_pixel_pdf(row_pdf, col_pdf, env_w, env_h, row, col,
+                                        sin(M_PI_F * t_env));
         float3 wi = to_frame(&cur, dir);
         float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
         bool visible = wi.z > 0.0f && pdf_light > 0.0f;
