@@ -38,7 +38,7 @@ SCENES = {
 }
 
 
-def _scene(bpy, name: str, tmp: Path):
+def bench_scene(bpy, name: str, tmp: Path):
     """(exported scene, size, reference image; None for the demo, which Cycles cannot read)."""
     from bench_vs_cycles import build_scene
     from cycles_scenes import cycles_reference
@@ -70,7 +70,7 @@ def main(quick: bool = False) -> str:
     try:
         ctx = create_context()
         for name, (_, bounces) in SCENES.items():
-            exported, size, reference = _scene(bpy, name, tmp)
+            exported, size, reference = bench_scene(bpy, name, tmp)
             renderer = CLRenderer(exported, *size, ctx)
             renderer.render_sampled(1)  # compile and build the tables outside the timing
             if reference is None:  # the demo: our own, a camera ray per sample

@@ -167,11 +167,11 @@ class CLRenderer:
         self.env = self._buffer(rgba.ravel(), np.float32)
         self.scene_lights = self._buffer(pack_lights(scene.lights).ravel(), np.float32)
         self.scene_light_count = np.int32(len(scene.lights))
-        # The environment's sampling tables, exactly those of core/sampling/envmap.py.
-        self.env_tables = [
-            self._buffer(a.ravel(), np.float32)
-            for a in (env.row_cdf, env.col_cdf, env.row_pdf, env.col_pdf)
-        ]
+        #: The Sampled mode's environment draws from MIS-compensated tables
+        #: (core/sampling/envmap.py ``Environment.mis_tables``); False: the plain tables, as
+        #: before them (comparisons, docs/accuracy.md).
+        self.mis_compensation = True
+        self._env_tables: dict[bool, list] = {}
 
     def _buffer(self, array, dtype):
         mf = self.cl.mem_flags
@@ -303,6 +303,19 @@ class CLRenderer:
             self.scene_lights,
             self.scene_light_count,
         ]
+
+    def _next_event_tables(self) -> list:
+        """The environment's tables for the Sampled mode's draws, exactly those of
+        core/sampling/envmap.py, uploaded on first use."""
+        key = bool(self.mis_compensation)
+        if key not in self._env_tables:
+            env = self.scene.environment
+            tables = env.mis_tables if key else env.tables
+            self._env_tables[key] = [
+                self._buffer(a.ravel(), np.float32)
+                for a in (tables.row_cdf, tables.col_cdf, tables.row_pdf, tables.col_pdf)
+            ]
+        return self._env_tables[key]
 
     def _world_from_clip(self):
         cam = self.scene.camera
@@ -464,7 +477,7 @@ class CLRenderer:
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0
-        world_args = [self.eps, *self._env_args(), *self.env_tables]
+        world_args = [self.eps, *self._env_args(), *self._next_event_tables()]
         film_args = [
             np.int32(self.film is not None),
             self.filter_table,

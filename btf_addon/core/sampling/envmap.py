@@ -14,8 +14,10 @@ Solid-angle pdf = pdf_image / (2π² sin θ).
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -27,6 +29,32 @@ log = logging.getLogger(__name__)
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: sin θ never goes below this in a pdf: keeps pole samples finite.
 MIN_SIN_THETA = 1e-9
+
+
+class SamplingTables(NamedTuple):
+    """A piecewise-constant distribution over the map's pixels: a row by its marginal, then a
+    column within it (each pixel's probability is row_pdf[r] · col_pdf[r, c])."""
+
+    row_pdf: np.ndarray  # (H,) probability of each row
+    row_cdf: np.ndarray  # (H + 1,) from 0 to 1
+    col_pdf: np.ndarray  # (H, W) probability of each column within its row
+    col_cdf: np.ndarray  # (H, W + 1) each row from 0 to 1
+
+
+def sampling_tables(weight: np.ndarray) -> SamplingTables:
+    """(H, W) non-negative weights with a positive sum → their tables. ``weight`` is consumed
+    (normalised in place and kept as col_pdf): a large map's tables cost its size once more."""
+    h, w = weight.shape
+    weight /= weight.sum()  # normalise first: 1e6-valued maps stay well scaled
+    row_mass = weight.sum(axis=1)
+    row_cdf = np.concatenate([[0.0], np.cumsum(row_mass)])
+    row_cdf /= row_cdf[-1]
+    empty = row_mass <= 0
+    weight /= np.where(empty, 1.0, row_mass)[:, None]
+    weight[empty] = 1.0 / w
+    col_cdf = np.concatenate([np.zeros((h, 1)), np.cumsum(weight, axis=1)], axis=1)
+    col_cdf /= col_cdf[:, -1:]
+    return SamplingTables(row_mass, row_cdf, weight, col_cdf)
 
 
 @dataclass
@@ -123,17 +151,35 @@ class Environment:
         self.is_black = not (total > 0.0 and np.isfinite(total))
         if self.is_black:
             weight = np.broadcast_to(sin_rows[:, None], (h, w)).copy()
-        weight /= weight.sum()  # normalise first: 1e6-valued maps stay well scaled
-        row_mass = weight.sum(axis=1)
-        self.row_pdf = row_mass  # probability of each row
-        self.row_cdf = np.concatenate([[0.0], np.cumsum(row_mass)])
-        self.row_cdf /= self.row_cdf[-1]
-        empty = row_mass <= 0
-        weight /= np.where(empty, 1.0, row_mass)[:, None]  # in place: the map's size once more
-        weight[empty] = 1.0 / w
-        self.col_pdf = weight
-        self.col_cdf = np.concatenate([np.zeros((h, 1)), np.cumsum(self.col_pdf, axis=1)], axis=1)
-        self.col_cdf /= self.col_cdf[:, -1:]
+        self.tables = sampling_tables(weight)
+        self.row_pdf, self.row_cdf, self.col_pdf, self.col_cdf = self.tables
+
+    @functools.cached_property
+    def mis_tables(self) -> SamplingTables:
+        """The final render's next-event tables: MIS compensation (Karlík et al. 2019,
+        "MIS Compensation: Optimizing Sampling Techniques in Multiple Importance Sampling"):
+        density ∝ max(L − L̄, 0) · sin θ, L̄ the map's mean luminance over the sphere.
+
+        The path tracer combines these samples with the BTF's own by MIS, and the BTF's
+        sampling covers every direction above the surface, so leaving the smooth part of the
+        sky to it stays unbiased; the environment's samples then go where the BTF's cannot
+        find the light (a sun, a window). Time to the same error: docs/accuracy.md, "MIS
+        compensation". A map with nothing above its mean (a constant colour) keeps the plain
+        tables. float32, as the kernels read them; built on first use (the viewport's virtual
+        lights never need them)."""
+        h, w = self.height, self.width
+        sin_rows = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+        excess = self.radiance @ LUMINANCE
+        mean = float((excess * sin_rows[:, None]).sum()) / (float(sin_rows.sum()) * w)
+        excess -= mean
+        np.maximum(excess, 0.0, out=excess)
+        excess *= sin_rows[:, None]
+        total = excess.sum()
+        tables = self.tables
+        if not self.is_black and total > 0.0 and np.isfinite(total):
+            tables = sampling_tables(excess)
+        del excess  # now the float64 col_pdf: converted one table at a time (the memory model)
+        return SamplingTables(*(tables[i].astype(np.float32) for i in range(4)))
 
     # --- mapping ---------------------------------------------------------------------------
     def _rot(self, angle: float) -> np.ndarray:
@@ -167,11 +213,13 @@ class Environment:
         return self.radiance[row, col]
 
     # --- sampling --------------------------------------------------------------------------
-    def pdf(self, world_dirs: np.ndarray) -> np.ndarray:
-        """Solid-angle density (N,) of ``sample`` producing each direction."""
+    def pdf(self, world_dirs: np.ndarray, tables: SamplingTables | None = None) -> np.ndarray:
+        """Solid-angle density (N,) of ``sample`` producing each direction (of a draw from
+        ``tables`` when given: ``mis_tables``)."""
+        row_pdf, _, col_pdf, _ = self.tables if tables is None else tables
         s, t = self.image_coords(world_dirs)
         row, col = self._pixel(s, t)
-        pdf_image = self.row_pdf[row] * self.col_pdf[row, col] * self.width * self.height
+        pdf_image = row_pdf[row] * col_pdf[row, col].astype(np.float64) * self.width * self.height
         sin_t = np.maximum(np.sin(np.pi * t), MIN_SIN_THETA)
         return pdf_image / (2 * np.pi * np.pi * sin_t)
 
