@@ -33,7 +33,7 @@ from ..render.adaptive import AdaptiveSampling
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
-from ..scene.bvh import build_bvh
+from ..scene.geometry_cache import cached_bvh
 from ..scene.lights import pack_lights
 from ..scene.scene import Scene
 from .context import CLContext
@@ -191,7 +191,7 @@ class CLRenderer:
         tri_material = np.concatenate(materials) if materials else np.zeros(0, np.int32)
         tris = corners.reshape(-1, 3, 12)
         if len(tris):
-            bvh = build_bvh(tris[:, :, :3])
+            bvh = cached_bvh(tris[:, :, :3])  # from the disk when built before
             tris, tri_material = tris[bvh.order], tri_material[bvh.order]
             bounds, links = bvh.bounds, bvh.links
             extent = float(np.ptp(tris[:, :, :3].reshape(-1, 3), axis=0).max())

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geometry_cache import cached_verdict
 from .lights import AreaLight, PointLight, SunLight
 from .scene import Scene
 
@@ -35,6 +36,8 @@ CODEC_DEFINES = {
 }
 ALL_CODECS = frozenset(CODEC_DEFINES)
 
+#: How far (× the mesh's size) a vertex may lie in front of a face's plane in a convex mesh.
+CONVEX_TOLERANCE = 1e-4
 #: Above this many face × vertex tests, convexity is not checked and shadows stay on.
 MAX_CONVEXITY_WORK = 50_000_000
 #: Vertex × plane products per block of is_convex: 16 MB of float32 at a time.
@@ -69,7 +72,7 @@ class SceneFeatures:
         return out
 
 
-def is_convex(corners: np.ndarray, tolerance: float = 1e-4) -> bool:
+def is_convex(corners: np.ndarray, tolerance: float = CONVEX_TOLERANCE) -> bool:
     """corners: (3·T, ≥3) world-space positions in the first 3 columns. True when no vertex lies
     more than ``tolerance`` × the mesh's size in front of any face's plane."""
     p = corners[:, :3].astype(np.float64).reshape(-1, 3, 3)
@@ -105,10 +108,16 @@ def is_convex(corners: np.ndarray, tolerance: float = 1e-4) -> bool:
     return True
 
 
+def _convex(corners: np.ndarray) -> bool:
+    """is_convex, from the disk when this mesh was judged before (geometry_cache.py)."""
+    question = {"what": "convex", "tolerance": CONVEX_TOLERANCE}
+    return cached_verdict(corners, question, lambda: is_convex(corners))
+
+
 def analyse(scene: Scene) -> SceneFeatures:
     meshes = [m.world_space_corners() for m in scene.meshes]
     meshes = [m for m in meshes if len(m)]
-    shadows = len(meshes) > 1 or (len(meshes) == 1 and not is_convex(meshes[0]))
+    shadows = len(meshes) > 1 or (len(meshes) == 1 and not _convex(meshes[0]))
     env = scene.environment
     return SceneFeatures(
         shadows=shadows,

@@ -58,13 +58,13 @@ def test_every_rung_on_one_renderer_as_on_its_own_before(
     cl_renderer = extension_submodule("btf_addon.cl.renderer")
     frame = extension_submodule("btf_addon.cl.frame")
     builds, calls = [], []
-    real_build = cl_renderer.build_bvh
+    real_build = cl_renderer.cached_bvh
 
     def counting_build(*args, **kwargs):
         builds.append(1)
         return real_build(*args, **kwargs)
 
-    monkeypatch.setattr(cl_renderer, "build_bvh", counting_build)
+    monkeypatch.setattr(cl_renderer, "cached_bvh", counting_build)
     monkeypatch.setattr(run, "render_frame", _recording(frame, calls))
     estimate, rungs, renderer = run.prepare(
         bpy.context.evaluated_depsgraph_get(), 16, reference_samples=8, reference_bounces=2

@@ -100,13 +100,13 @@ def test_one_renderer_switching_film_and_filter_renders_the_frames_of_before(
     from btf_addon.cl.frame import render_frame
 
     builds = []
-    real_build = renderer_module.build_bvh
+    real_build = renderer_module.cached_bvh
 
     def counting_build(*args, **kwargs):
         builds.append(1)
         return real_build(*args, **kwargs)
 
-    monkeypatch.setattr(renderer_module, "build_bvh", counting_build)
+    monkeypatch.setattr(renderer_module, "cached_bvh", counting_build)
     scene = horizon_scene()
     renderer = renderer_module.CLRenderer(scene, W, H, cl_context)
     renderer.fixed_launch_split = True
