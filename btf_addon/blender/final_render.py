@@ -164,8 +164,9 @@ def _render_view(engine, depsgraph, renderer, settings, region, transparent, vie
     """One view's passes into its result; False when the user stopped the render."""
     exported = renderer.scene
     cam = exported.camera
-    lights = frame_lights(settings, exported, cam.world_from_camera[:3, 2])
     sampled = settings.sampled
+    # The Sampled mode draws from the World itself: no virtual lights (cl/frame.py).
+    lights = None if sampled else frame_lights(settings, exported, cam.world_from_camera[:3, 2])
     lighting = (
         f"{settings.samples} samples, {settings.max_bounces} bounces"
         if sampled

@@ -12,17 +12,23 @@ from ..core.sampling.envmap import VirtualLights
 from ..render.settings import RenderSettings
 from .renderer import CLRenderer, RenderPasses
 
+#: The light of the Sampled mode's direct pass when the caller has none: that pass writes only
+#: Depth, Normal and UV (its Combined is replaced), so any light will do, and the World's
+#: virtual lights need the plain sampling tables, which the Sampled mode never reads.
+DATA_PASSES_ONLY = VirtualLights(np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)), np.ones(1))
+
 
 def render_frame(
     renderer: CLRenderer,
     settings: RenderSettings,
-    lights: VirtualLights,
+    lights: VirtualLights | None,
     progress: Callable[[float], bool] | None = None,
     show: Callable[[np.ndarray], None] | None = None,
     transparent: bool = False,
 ) -> RenderPasses:
     """Every pass of one frame with the film and the mode of ``settings``, lit by the frame's
-    virtual ``lights`` (render/lighting.py ``frame_lights``).
+    virtual ``lights`` (render/lighting.py ``frame_lights``; None in the Sampled mode, which
+    needs none).
 
     Sampled: Depth, Normal and UV from the deterministic kernel with the first light (cheap),
     then Combined path traced, ``show(combined)`` seeing the image after each progressive pass.
@@ -41,7 +47,7 @@ def render_frame(
     renderer.transparent = transparent
     if not settings.sampled:
         return renderer.render_direct(lights, progress, aa_samples=settings.aa_samples)
-    passes = renderer.render_direct(lights.prefix(1))
+    passes = renderer.render_direct(DATA_PASSES_ONLY if lights is None else lights.prefix(1))
     passes.combined = renderer.render_sampled(
         settings.samples, settings.seed, progress, max_bounces=settings.max_bounces, preview=show
     )

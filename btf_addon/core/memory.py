@@ -213,7 +213,7 @@ def swatch(size: int, suffix: str) -> Estimate:
 #: ``Environment`` per pixel: the float32 file channels, the float64 radiance, the per-pixel
 #: masks, luminance weights, column pdf and cdf (float64 each). Measured: 79 B/px for a
 #: 4096 × 2048 map (was ~128 before the map was cleaned in place); the final render's
-#: MIS-compensated tables (float32, built later) peak at 64 B/px above the file's own 12.
+#: MIS-compensated tables (float32, built later) peak at 56 B/px above the file's own 12.
 ENV_PIXEL_BYTES = 96
 #: One virtual light while sampling and saving (Sobol points, row/column search, outputs):
 #: 10⁶ lights over a 4096-wide map stay below the map's own peak (measured).

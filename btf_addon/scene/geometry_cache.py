@@ -15,7 +15,7 @@ count (links in range, the order a permutation) is rebuilt and replaced: a damag
 cost time, never a wrong image.
 
 Meshes below MIN_TRIANGLES are built each time (a file read costs about what the build
-does). Size: a BVH takes ~60 B per triangle (1M triangles: ~60 MB); when a store takes the
+does). Size: a BVH takes ~27 B per triangle (1M triangles: ~27 MB); when a store takes the
 folder past CAP_BYTES the files used longest ago are removed first, so the folder stays under
 the cap whatever is rendered.
 

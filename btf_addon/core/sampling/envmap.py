@@ -52,7 +52,9 @@ def sampling_tables(weight: np.ndarray) -> SamplingTables:
     empty = row_mass <= 0
     weight /= np.where(empty, 1.0, row_mass)[:, None]
     weight[empty] = 1.0 / w
-    col_cdf = np.concatenate([np.zeros((h, 1)), np.cumsum(weight, axis=1)], axis=1)
+    col_cdf = np.empty((h, w + 1))  # filled in place: no concatenated copy of the map's size
+    col_cdf[:, 0] = 0.0
+    np.cumsum(weight, axis=1, out=col_cdf[:, 1:])
     col_cdf /= col_cdf[:, -1:]
     return SamplingTables(row_mass, row_cdf, weight, col_cdf)
 
@@ -142,17 +144,35 @@ class Environment:
         return cls(np.asarray(rgb, dtype=np.float64).reshape(1, 1, 3), strength)
 
     def _build_distribution(self) -> None:
-        h, w = self.height, self.width
-        sin_rows = np.sin(np.pi * (np.arange(h) + 0.5) / h)
-        weight = self.radiance @ LUMINANCE  # ≥ 0: the radiance was cleaned of negatives
-        weight *= sin_rows[:, None]
-        total = weight.sum()
+        """The luminance weights (∝ L · sin θ), the map's mean and whether it is black. The
+        tables are built from the weights on first use (``tables``, ``mis_tables``): F12's
+        Sampled mode needs only the compensated ones, the viewport only the plain ones, and
+        each build is milliseconds of a frame's fixed cost."""
+        self._sin_rows = np.sin(np.pi * (np.arange(self.height) + 0.5) / self.height)
+        self._weight: np.ndarray | None = self._luminance_weight()
+        total = self._weight.sum()
         # Far below this nothing is visible at all; also covers the all-zero map.
         self.is_black = not (total > 0.0 and np.isfinite(total))
+        #: The mean luminance over the sphere (pixels weighted by their solid angle).
+        self.mean_luminance = 0.0 if self.is_black else total / (self._sin_rows.sum() * self.width)
         if self.is_black:
-            weight = np.broadcast_to(sin_rows[:, None], (h, w)).copy()
-        self.tables = sampling_tables(weight)
-        self.row_pdf, self.row_cdf, self.col_pdf, self.col_cdf = self.tables
+            self._weight = np.broadcast_to(self._sin_rows[:, None], self._weight.shape).copy()
+
+    def _luminance_weight(self) -> np.ndarray:
+        weight = self.radiance @ LUMINANCE  # ≥ 0: the radiance was cleaned of negatives
+        weight *= self._sin_rows[:, None]
+        return weight
+
+    @functools.cached_property
+    def tables(self) -> SamplingTables:
+        """The plain tables: density ∝ L · sin θ (uniform over the sphere for a black map)."""
+        weight, self._weight = self._weight, None  # consumed: the tables hold it as col_pdf
+        return sampling_tables(weight)
+
+    row_pdf = property(lambda self: self.tables.row_pdf)
+    row_cdf = property(lambda self: self.tables.row_cdf)
+    col_pdf = property(lambda self: self.tables.col_pdf)
+    col_cdf = property(lambda self: self.tables.col_cdf)
 
     @functools.cached_property
     def mis_tables(self) -> SamplingTables:
@@ -167,17 +187,16 @@ class Environment:
         compensation". A map with nothing above its mean (a constant colour) keeps the plain
         tables. float32, as the kernels read them; built on first use (the viewport's virtual
         lights never need them)."""
-        h, w = self.height, self.width
-        sin_rows = np.sin(np.pi * (np.arange(h) + 0.5) / h)
-        excess = self.radiance @ LUMINANCE
-        mean = float((excess * sin_rows[:, None]).sum()) / (float(sin_rows.sum()) * w)
-        excess -= mean
+        if self.is_black:
+            return SamplingTables(*(a.astype(np.float32) for a in self.tables))
+        weight = self._weight if self._weight is not None else self._luminance_weight()
+        # (L − L̄) · sin θ = L · sin θ − L̄ · sin θ: from the weights, not the radiance again
+        excess = weight - self.mean_luminance * self._sin_rows[:, None]
         np.maximum(excess, 0.0, out=excess)
-        excess *= sin_rows[:, None]
         total = excess.sum()
-        tables = self.tables
-        if not self.is_black and total > 0.0 and np.isfinite(total):
-            tables = sampling_tables(excess)
+        if not (total > 0.0 and np.isfinite(total)):
+            return SamplingTables(*(a.astype(np.float32) for a in self.tables))
+        tables = sampling_tables(excess)
         del excess  # now the float64 col_pdf: converted one table at a time (the memory model)
         return SamplingTables(*(tables[i].astype(np.float32) for i in range(4)))
 
