@@ -48,26 +48,29 @@ def register() -> None:
 
 
 def _use_extension_kernel_cache() -> None:
-    """Compiled OpenCL kernels, BTF importance tables and BVHs in the extension's user directory
-    (removed with the extension) instead of ~/.cache. Blender before 4.2, or the add-on run
-    from a checkout (not an installed extension), has no such directory: the default caches
-    stay."""
+    """Compiled OpenCL kernels, BTF importance tables, BVHs and World images in the extension's
+    user directory (removed with the extension) instead of ~/.cache. Blender before 4.2, or the
+    add-on run from a checkout (not an installed extension), has no such directory: the default
+    caches stay."""
     import bpy
 
     from ..cl import programs
     from ..core.sampling import table_cache
     from ..scene import geometry_cache
     from .addon import ADDON_PACKAGE
+    from .export import world_cache
 
     try:
         folder = bpy.utils.extension_path_user(ADDON_PACKAGE, path="kernel_cache", create=True)
         tables = bpy.utils.extension_path_user(ADDON_PACKAGE, path="importance_cache")
         geometry = bpy.utils.extension_path_user(ADDON_PACKAGE, path="geometry_cache")
+        world = bpy.utils.extension_path_user(ADDON_PACKAGE, path="world_cache")
     except (AttributeError, ValueError, KeyError, OSError):
         return
     programs.set_cache_dir(folder)
     table_cache.set_cache_dir(tables)
     geometry_cache.set_cache_dir(geometry)
+    world_cache.STORE.set_folder(world)
 
 
 def unregister() -> None:

@@ -26,3 +26,11 @@ def test_bvhs_live_in_the_extensions_user_directory(bpy_module, installed):
     geometry_cache = importlib.import_module(f"{EXTENSION_MODULE}.btf_addon.scene.geometry_cache")
     folder = Path(bpy_module.utils.extension_path_user(EXTENSION_MODULE, path="geometry_cache"))
     assert geometry_cache.cache_dir() == folder
+
+
+def test_world_images_live_in_the_extensions_user_directory(bpy_module, installed):
+    world_cache = importlib.import_module(
+        f"{EXTENSION_MODULE}.btf_addon.blender.export.world_cache"
+    )
+    folder = Path(bpy_module.utils.extension_path_user(EXTENSION_MODULE, path="world_cache"))
+    assert world_cache.STORE.folder() == folder

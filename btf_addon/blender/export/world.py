@@ -16,6 +16,7 @@ import numpy as np
 from ...core.colour import srgb_decode
 from ...core.sampling.envmap import Environment
 from .. import compat
+from .world_cache import cached_pixels
 
 BLACK = (0.0, 0.0, 0.0)
 
@@ -33,7 +34,13 @@ def _active_output(tree):
 
 
 def image_pixels(image) -> np.ndarray:
-    """A Blender image → (H, W, 3) float32 scene-linear, row 0 at the top."""
+    """A Blender image → (H, W, 3) float32 scene-linear, row 0 at the top; from the disk when
+    this file was read before with the same settings (world_cache.py)."""
+    return cached_pixels(image, lambda: _read_pixels(image))
+
+
+def _read_pixels(image) -> np.ndarray:
+    """image_pixels from Blender: the file decoded (on first use) and copied out."""
     w, h = image.size
     if w == 0 or h == 0:
         import bpy  # only here: the path a farm is missing, not the datablock's name
