@@ -10,6 +10,8 @@ finds the sky and the environment's draws are spent on the sun."""
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 from cycles_scenes import relative_rmse
@@ -55,6 +57,23 @@ def test_a_map_with_nothing_above_its_mean_keeps_the_plain_tables(image):
     env = Environment(image)
     for compensated, plain in zip(env.mis_tables, env.tables, strict=True):
         np.testing.assert_array_equal(compensated, plain.astype(np.float32))
+
+
+def test_threads_building_the_tables_at_once_get_the_same_tables():
+    """The viewport (main thread) and F12 (a render thread) may share one Environment, and its
+    tables are built on first use from weights the plain build consumes."""
+    image = np.random.default_rng(3).gamma(0.6, 1.0, (64, 128, 3))
+    alone = Environment(image)
+    expected = (alone.tables, alone.mis_tables)
+    for _ in range(20):
+        shared = Environment(image)
+        with ThreadPoolExecutor(4) as pool:
+            futures = [pool.submit(getattr, shared, "tables") for _ in range(2)]
+            futures += [pool.submit(getattr, shared, "mis_tables") for _ in range(2)]
+            results = [f.result() for f in futures]
+        for got, want in zip(results, [expected[0]] * 2 + [expected[1]] * 2, strict=True):
+            for a, b in zip(got, want, strict=True):
+                np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.opencl

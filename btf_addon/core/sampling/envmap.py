@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import threading
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -149,6 +150,8 @@ class Environment:
         Sampled mode needs only the compensated ones, the viewport only the plain ones, and
         each build is milliseconds of a frame's fixed cost."""
         self._sin_rows = np.sin(np.pi * (np.arange(self.height) + 0.5) / self.height)
+        # The viewport (main thread) and F12 (a render thread) may share one Environment.
+        self._tables_lock = threading.Lock()
         self._weight: np.ndarray | None = self._luminance_weight()
         total = self._weight.sum()
         # Far below this nothing is visible at all; also covers the all-zero map.
@@ -166,8 +169,13 @@ class Environment:
     @functools.cached_property
     def tables(self) -> SamplingTables:
         """The plain tables: density ∝ L · sin θ (uniform over the sphere for a black map)."""
-        weight, self._weight = self._weight, None  # consumed: the tables hold it as col_pdf
-        return sampling_tables(weight)
+        with self._tables_lock:
+            weight, self._weight = self._weight, None  # consumed: the tables hold it as col_pdf
+            if weight is None:  # another thread's first use got here first
+                weight = self._luminance_weight()
+                if self.is_black:
+                    weight = np.broadcast_to(self._sin_rows[:, None], weight.shape).copy()
+            return sampling_tables(weight)
 
     row_pdf = property(lambda self: self.tables.row_pdf)
     row_cdf = property(lambda self: self.tables.row_cdf)
@@ -189,9 +197,10 @@ class Environment:
         lights never need them)."""
         if self.is_black:
             return SamplingTables(*(a.astype(np.float32) for a in self.tables))
-        weight = self._weight if self._weight is not None else self._luminance_weight()
-        # (L − L̄) · sin θ = L · sin θ − L̄ · sin θ: from the weights, not the radiance again
-        excess = weight - self.mean_luminance * self._sin_rows[:, None]
+        with self._tables_lock:  # `tables` normalises the weights in place
+            weight = self._weight if self._weight is not None else self._luminance_weight()
+            # (L − L̄) · sin θ = L · sin θ − L̄ · sin θ: from the weights, not the radiance again
+            excess = weight - self.mean_luminance * self._sin_rows[:, None]
         np.maximum(excess, 0.0, out=excess)
         total = excess.sum()
         if not (total > 0.0 and np.isfinite(total)):
