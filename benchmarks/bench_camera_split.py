@@ -38,7 +38,7 @@ SCENES = {
 }
 
 
-def bench_scene(bpy, name: str, tmp: Path):
+def _scene(bpy, name: str, tmp: Path):
     """(exported scene, size, reference image; None for the demo, which Cycles cannot read)."""
     from bench_vs_cycles import build_scene
     from cycles_scenes import cycles_reference
@@ -55,44 +55,52 @@ def bench_scene(bpy, name: str, tmp: Path):
     return exported, size, reference[..., :3]
 
 
-def main(quick: bool = False) -> str:
+def bench_renderers(prefix: str):
+    """(scene name, renderer, reference, bounces) for each of SCENES, in this registered
+    Blender, the renderer compiled and its tables built; the demo's reference is ours with a
+    camera ray per sample. Shared with bench_mis_compensation.py."""
     import bpy
-    from cycles_scenes import relative_rmse
 
     import btf_addon
     from btf_addon.cl.context import create_context
     from btf_addon.cl.renderer import CLRenderer
 
-    samples = SAMPLES[:2] if quick else SAMPLES
     btf_addon.register()
-    tmp = Path(tempfile.mkdtemp(prefix="btf-bench-split-"))
-    rows = []
+    tmp = Path(tempfile.mkdtemp(prefix=prefix))
     try:
         ctx = create_context()
         for name, (_, bounces) in SCENES.items():
-            exported, size, reference = bench_scene(bpy, name, tmp)
+            exported, size, reference = _scene(bpy, name, tmp)
             renderer = CLRenderer(exported, *size, ctx)
             renderer.render_sampled(1)  # compile and build the tables outside the timing
             if reference is None:  # the demo: our own, a camera ray per sample
                 reference = renderer.render_sampled(REFERENCE_SAMPLES, 101, None, bounces)
-                reference = reference[..., :3]
-            for n in samples:
-                base = None
-                for k in SPLITS:
-                    renderer.samples_per_camera_ray = k
-                    seconds, errors = [], []
-                    for seed in range(SEEDS):
-                        t0 = time.perf_counter()
-                        image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
-                        seconds.append(time.perf_counter() - t0)
-                        errors.append(relative_rmse(image, reference))
-                    t, e = float(np.median(seconds)), float(np.mean(errors))
-                    base = base or t * e * e
-                    gain = round(base / (t * e * e), 2)
-                    rows.append([name, n, k, round(t, 3), round(e, 4), gain])
+            yield name, renderer, reference[..., :3], bounces
     finally:
         btf_addon.unregister()
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def main(quick: bool = False) -> str:
+    from cycles_scenes import relative_rmse
+
+    samples = SAMPLES[:2] if quick else SAMPLES
+    rows = []
+    for name, renderer, reference, bounces in bench_renderers("btf-bench-split-"):
+        for n in samples:
+            base = None
+            for k in SPLITS:
+                renderer.samples_per_camera_ray = k
+                seconds, errors = [], []
+                for seed in range(SEEDS):
+                    t0 = time.perf_counter()
+                    image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
+                    seconds.append(time.perf_counter() - t0)
+                    errors.append(relative_rmse(image, reference))
+                t, e = float(np.median(seconds)), float(np.mean(errors))
+                base = base or t * e * e
+                gain = round(base / (t * e * e), 2)
+                rows.append([name, n, k, round(t, 3), round(e, 4), gain])
     header = ["scene", "samples", "per camera ray", "s", "relative RMSE", "gain at equal error"]
     return table(header, rows)
 

@@ -1,13 +1,13 @@
 """MIS compensation of the World's next-event draws: error against time, side by side in one
 process (core/sampling/envmap.py ``Environment.mis_tables``).
 
-The scenes and references of benchmarks/bench_camera_split.py (Cycles at 16384 samples for the
-spheres, ours at 16384 for the demo), F12's defaults (Blender's default film filter, 4 samples
-per camera ray), Clamp Indirect off. One CLRenderer per scene renders with the plain tables
-(draws ∝ luminance · sin θ, as before) and the compensated ones (∝ max(L − L̄, 0) · sin θ)
-alternately, the same seeds for both; time is the median, error the root mean square of the
-seeds' relative RMSE. "Gain at equal error" is (t·e²) plain over (t·e²) compensated: how much
-sooner the compensated render reaches the plain one's error.
+The scenes and references of benchmarks/bench_camera_split.py ``bench_renderers`` (Cycles at
+16384 samples for the spheres, ours at 16384 for the demo), F12's defaults (Blender's default
+film filter, 4 samples per camera ray), Clamp Indirect off. One CLRenderer per scene renders
+with the plain tables (draws ∝ luminance · sin θ, as before) and the compensated ones
+(∝ max(L − L̄, 0) · sin θ) alternately, the same seeds for both; time is the median, error
+the root mean square of the seeds' relative RMSE. "Gain at equal error" is (t·e²) plain over
+(t·e²) compensated: how much sooner the compensated render reaches the plain one's error.
 
     python benchmarks/bench_mis_compensation.py [--quick]
 """
@@ -15,13 +15,10 @@ sooner the compensated render reaches the plain one's error.
 from __future__ import annotations
 
 import argparse
-import shutil
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
-from bench_camera_split import REFERENCE_SAMPLES, SCENES, bench_scene
+from bench_camera_split import bench_renderers
 from common import table
 
 SAMPLES = (64, 256, 1024)
@@ -29,51 +26,33 @@ SEEDS = 6
 
 
 def main(quick: bool = False) -> str:
-    import bpy
     from cycles_scenes import relative_rmse
 
-    import btf_addon
-    from btf_addon.cl.context import create_context
-    from btf_addon.cl.renderer import CLRenderer
-
     samples = SAMPLES[:2] if quick else SAMPLES
-    btf_addon.register()
-    tmp = Path(tempfile.mkdtemp(prefix="btf-bench-mis-"))
     rows = []
-    try:
-        ctx = create_context()
-        for name, (_, bounces) in SCENES.items():
-            exported, size, reference = bench_scene(bpy, name, tmp)
-            renderer = CLRenderer(exported, *size, ctx)
-            renderer.samples_per_camera_ray = 4  # F12's default
-            for compensated in (False, True):  # compile, build and upload outside the timing
-                renderer.mis_compensation = compensated
-                renderer.render_sampled(1)
-            if reference is None:  # the demo: our own
-                reference = renderer.render_sampled(REFERENCE_SAMPLES, 101, None, bounces)
-                reference = reference[..., :3]
-            for n in samples:
-                seconds = {False: [], True: []}
-                errors = {False: [], True: []}
-                for seed in range(SEEDS):
-                    for compensated in (False, True):  # alternating: both meet the same load
-                        renderer.mis_compensation = compensated
-                        t0 = time.perf_counter()
-                        image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
-                        seconds[compensated].append(time.perf_counter() - t0)
-                        errors[compensated].append(relative_rmse(image, reference))
-                cost = {}
-                for compensated in (False, True):
-                    t = float(np.median(seconds[compensated]))
-                    e = float(np.sqrt(np.mean(np.square(errors[compensated]))))
-                    cost[compensated] = t * e * e
-                    rows.append([name, n, "compensated" if compensated else "plain"])
-                    rows[-1] += [round(t, 3), round(e, 4)]
-                rows[-1].append(round(cost[False] / cost[True], 2))
-                rows[-2].append("")
-    finally:
-        btf_addon.unregister()
-        shutil.rmtree(tmp, ignore_errors=True)
+    for name, renderer, reference, bounces in bench_renderers("btf-bench-mis-"):
+        renderer.samples_per_camera_ray = 4  # F12's default
+        renderer.mis_compensation = False  # the plain tables too, outside the timing
+        renderer.render_sampled(1)
+        for n in samples:
+            seconds = {False: [], True: []}
+            errors = {False: [], True: []}
+            for seed in range(SEEDS):
+                for compensated in (False, True):  # alternating: both meet the same load
+                    renderer.mis_compensation = compensated
+                    t0 = time.perf_counter()
+                    image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
+                    seconds[compensated].append(time.perf_counter() - t0)
+                    errors[compensated].append(relative_rmse(image, reference))
+            cost = {}
+            for compensated in (False, True):
+                t = float(np.median(seconds[compensated]))
+                e = float(np.sqrt(np.mean(np.square(errors[compensated]))))
+                cost[compensated] = t * e * e
+                rows.append([name, n, "compensated" if compensated else "plain"])
+                rows[-1] += [round(t, 3), round(e, 4)]
+            rows[-1].append(round(cost[False] / cost[True], 2))
+            rows[-2].append("")
     header = ["scene", "samples", "tables", "s", "relative RMSE", "gain at equal error"]
     return table(header, rows)
 

@@ -69,7 +69,7 @@ def _use_extension_kernel_cache() -> None:
         return
     programs.set_cache_dir(folder)
     table_cache.set_cache_dir(tables)
-    geometry_cache.set_cache_dir(geometry)
+    geometry_cache.STORE.set_folder(geometry)
     world_cache.STORE.set_folder(world)
 
 

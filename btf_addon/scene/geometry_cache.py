@@ -18,7 +18,7 @@ does). Size: a BVH takes ~27 B per triangle (1M triangles: ~27 MB); when a store
 folder past its cap (512 MiB, ``STORE.cap_bytes``) the files used longest ago are removed
 first, so the folder stays under the cap whatever is rendered.
 
-Where: ``set_cache_dir`` (Blender: the extension's user directory, removed with it), else
+Where: ``STORE.set_folder`` (Blender: the extension's user directory, removed with it), else
 ``BTF_GEOMETRY_CACHE``, else ``$XDG_CACHE_HOME/btf_materials/geometry``.
 ``BTF_GEOMETRY_CACHE=off`` turns it off. A folder that cannot be written is logged once and
 the data built each time, as without a cache. Writes are atomic (core/fileio.py).
@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
@@ -40,16 +39,6 @@ from . import bvh as bvh_module
 MIN_TRIANGLES = 512
 #: The files (core/npz_store.py): at most 512 MiB, least recently used first out.
 STORE = NpzStore("geometry cache", "BTF_GEOMETRY_CACHE", "geometry", 512 * 2**20)
-
-
-def set_cache_dir(path: str | Path | None) -> None:
-    """Keep BVHs and verdicts in ``path`` (None: back to the default, module docstring)."""
-    STORE.set_folder(path)
-
-
-def cache_dir() -> Path | None:
-    """The folder in use, None when the cache is off."""
-    return STORE.folder()
 
 
 def cached_bvh(triangles: np.ndarray) -> bvh_module.BVH:

@@ -25,7 +25,7 @@ def test_importance_tables_live_in_the_extensions_user_directory(bpy_module, ins
 def test_bvhs_live_in_the_extensions_user_directory(bpy_module, installed):
     geometry_cache = importlib.import_module(f"{EXTENSION_MODULE}.btf_addon.scene.geometry_cache")
     folder = Path(bpy_module.utils.extension_path_user(EXTENSION_MODULE, path="geometry_cache"))
-    assert geometry_cache.cache_dir() == folder
+    assert geometry_cache.STORE.folder() == folder
 
 
 def test_world_images_live_in_the_extensions_user_directory(bpy_module, installed):

@@ -18,10 +18,10 @@ from btf_addon.scene.primitives import uv_sphere
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
     folder = tmp_path / "geometry"
-    geometry_cache.set_cache_dir(folder)
+    geometry_cache.STORE.set_folder(folder)
     monkeypatch.setattr(geometry_cache.STORE, "stats", dict.fromkeys(geometry_cache.STORE.stats, 0))
     yield folder
-    geometry_cache.set_cache_dir(None)
+    geometry_cache.STORE.set_folder(None)
 
 
 def sphere_triangles(segments=48, rings=24, shift=0.0) -> np.ndarray:
@@ -160,15 +160,15 @@ def test_convexity_verdicts_are_kept_per_mesh_and_question(cache):
 def test_unwritable_folder_or_off_only_costs_the_build(tmp_path, monkeypatch, caplog):
     blocked = tmp_path / "file"
     blocked.write_text("a file where the folder should be")
-    geometry_cache.set_cache_dir(blocked / "geometry")
+    geometry_cache.STORE.set_folder(blocked / "geometry")
     try:
         with caplog.at_level(logging.WARNING):
             for _ in range(2):
                 assert encloses(geometry_cache.cached_bvh(sphere_triangles()), sphere_triangles())
         assert caplog.text.count("cannot write") == 1
     finally:
-        geometry_cache.set_cache_dir(None)
+        geometry_cache.STORE.set_folder(None)
     monkeypatch.setenv("BTF_GEOMETRY_CACHE", "off")
-    assert geometry_cache.cache_dir() is None
+    assert geometry_cache.STORE.folder() is None
     monkeypatch.setenv("BTF_GEOMETRY_CACHE", str(tmp_path / "elsewhere"))
-    assert geometry_cache.cache_dir() == tmp_path / "elsewhere"
+    assert geometry_cache.STORE.folder() == tmp_path / "elsewhere"

@@ -195,18 +195,18 @@ class Environment:
         compensation". A map with nothing above its mean (a constant colour) keeps the plain
         tables. float32, as the kernels read them; built on first use (the viewport's virtual
         lights never need them)."""
-        if self.is_black:
-            return SamplingTables(*(a.astype(np.float32) for a in self.tables))
-        with self._tables_lock:  # `tables` normalises the weights in place
-            weight = self._weight if self._weight is not None else self._luminance_weight()
-            # (L − L̄) · sin θ = L · sin θ − L̄ · sin θ: from the weights, not the radiance again
-            excess = weight - self.mean_luminance * self._sin_rows[:, None]
-        np.maximum(excess, 0.0, out=excess)
-        total = excess.sum()
-        if not (total > 0.0 and np.isfinite(total)):
-            return SamplingTables(*(a.astype(np.float32) for a in self.tables))
-        tables = sampling_tables(excess)
-        del excess  # now the float64 col_pdf: converted one table at a time (the memory model)
+        tables = None
+        if not self.is_black:
+            with self._tables_lock:  # `tables` normalises the weights in place
+                weight = self._weight if self._weight is not None else self._luminance_weight()
+                # (L − L̄) · sin θ = L · sin θ − L̄ · sin θ: from the weights, not the radiance
+                excess = weight - self.mean_luminance * self._sin_rows[:, None]
+            np.maximum(excess, 0.0, out=excess)
+            total = excess.sum()
+            if total > 0.0 and np.isfinite(total):
+                tables = sampling_tables(excess)
+        if tables is None:  # black, or nothing above the mean: the plain tables
+            tables = self.tables
         return SamplingTables(*(tables[i].astype(np.float32) for i in range(4)))
 
     # --- mapping ---------------------------------------------------------------------------
