@@ -1,13 +1,15 @@
-"""MIS compensation of the World's next-event draws: error against time, side by side in one
-process (core/sampling/envmap.py ``Environment.mis_tables``).
+"""MIS compensation of the World's next-event draws and the sun's draws of its own: error against
+time, side by side in one process (core/sampling/envmap.py ``Environment.mis_tables``,
+``Environment.sun_tables``).
 
 The scenes and references of benchmarks/bench_camera_split.py ``bench_renderers`` (Cycles at
 16384 samples for the spheres, ours at 16384 for the demo), F12's defaults (Blender's default
 film filter, 4 samples per camera ray), Clamp Indirect off. One CLRenderer per scene renders
-with the plain tables (draws ∝ luminance · sin θ, as before) and the compensated ones
-(∝ max(L − L̄, 0) · sin θ) alternately, the same seeds for both; time is the median, error
-the root mean square of the seeds' relative RMSE. "Gain at equal error" is (t·e²) plain over
-(t·e²) compensated: how much sooner the compensated render reaches the plain one's error.
+with the plain tables (draws ∝ luminance · sin θ, as before), the compensated ones
+(∝ max(L − L̄, 0) · sin θ), and the compensated ones with the map's sun drawn on its own
+(F12's default; forest.exr and city.exr both have one) alternately, the same seeds for all;
+time is the median, error the root mean square of the seeds' relative RMSE. "Gain at equal
+error" is (t·e²) plain over (t·e²) of the row: how much sooner it reaches the plain one's error.
 
     python benchmarks/bench_mis_compensation.py [--quick]
 """
@@ -23,6 +25,8 @@ from common import table
 
 SAMPLES = (64, 256, 1024)
 SEEDS = 6
+#: (label, compensated tables, the sun's own draws); the first is what the gains are against
+CONFIGS = (("plain", False, False), ("compensated", True, False), ("compensated + sun", True, True))
 
 
 def main(quick: bool = False) -> str:
@@ -32,27 +36,26 @@ def main(quick: bool = False) -> str:
     rows = []
     for name, renderer, reference, bounces in bench_renderers("btf-bench-mis-"):
         renderer.samples_per_camera_ray = 4  # F12's default
-        renderer.mis_compensation = False  # the plain tables too, outside the timing
-        renderer.render_sampled(1)
+        for _, compensated, sun in CONFIGS:  # every table uploaded outside the timing
+            renderer.mis_compensation, renderer.sun_sampling = compensated, sun
+            renderer.render_sampled(1)
         for n in samples:
-            seconds = {False: [], True: []}
-            errors = {False: [], True: []}
+            seconds = {config: [] for config in CONFIGS}
+            errors = {config: [] for config in CONFIGS}
             for seed in range(SEEDS):
-                for compensated in (False, True):  # alternating: both meet the same load
-                    renderer.mis_compensation = compensated
+                for config in CONFIGS:  # alternating: all meet the same load
+                    _, renderer.mis_compensation, renderer.sun_sampling = config
                     t0 = time.perf_counter()
                     image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
-                    seconds[compensated].append(time.perf_counter() - t0)
-                    errors[compensated].append(relative_rmse(image, reference))
-            cost = {}
-            for compensated in (False, True):
-                t = float(np.median(seconds[compensated]))
-                e = float(np.sqrt(np.mean(np.square(errors[compensated]))))
-                cost[compensated] = t * e * e
-                rows.append([name, n, "compensated" if compensated else "plain"])
-                rows[-1] += [round(t, 3), round(e, 4)]
-            rows[-1].append(round(cost[False] / cost[True], 2))
-            rows[-2].append("")
+                    seconds[config].append(time.perf_counter() - t0)
+                    errors[config].append(relative_rmse(image, reference))
+            base = None
+            for config in CONFIGS:
+                t = float(np.median(seconds[config]))
+                e = float(np.sqrt(np.mean(np.square(errors[config]))))
+                base = base or t * e * e
+                gain = round(base / (t * e * e), 2) if config is not CONFIGS[0] else ""
+                rows.append([name, n, config[0], round(t, 3), round(e, 4), gain])
     header = ["scene", "samples", "tables", "s", "relative RMSE", "gain at equal error"]
     return table(header, rows)
 

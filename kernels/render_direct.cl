@@ -235,32 +235,90 @@ __kernel void render_direct(const int width, const int height, const int row0,
 /* --- Monte Carlo environment lighting with MIS ----------------------------------------------
  * The same camera rays and shading frame as render_direct, but the World is sampled
  * continuously: per sample one light direction drawn from the environment's piecewise-constant
- * distribution (btf_addon/core/sampling/envmap.py, same tables) and one direction from the BTF's sampling
+ * distribution (btf_addon/core/sampling/envmap.py, same tables; at a glossy camera vertex one
+ * more from the map's sun, where it has one) and one direction from the BTF's sampling
  * (cosine, or its GGX lobe where it has one: include/btf_sampling.h), combined
  * with the power heuristic. Unbiased for any BTF; converges to the integral the virtual lights
  * approximate. The host renders samples [first_sample, first_sample + samples) per launch and
  * averages launches; a sample's random points depend only on its index, not on the split. */
 
-inline float3 env_direction(float s, float t, float rotation)
+/* The world direction of map point (s, t), and sin θ there (its density's factor). One sincos
+ * per angle: PoCL's sin and cos each reduce their argument (__pocl_argReductionS, 7 % of a
+ * Lambertian sample's time when this took four calls and the density a fifth). */
+inline float3 env_direction(float s, float t, float rotation, float *sin_theta)
 {
   float theta = M_PI_F * t, phi = M_PI_F - 2.0f * M_PI_F * s;
-  float3 m = (float3)(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+  float cos_theta, cos_phi;
+  float st = sincos(theta, &cos_theta), sin_phi = sincos(phi, &cos_phi);
+  *sin_theta = st;
+  float3 m = (float3)(st * cos_phi, st * sin_phi, cos_theta);
   float2 cs = env_rotation(rotation); /* world = R(-rotation) · map */
   float c = cs.x, sn = cs.y;
   return (float3)(c * m.x + sn * m.y, -sn * m.x + c * m.y, m.z);
 }
 
-/* The solid-angle density of the environment's sampling in one pixel, at sin θ of the point
- * drawn (a pixel's image-plane density over the sphere's 2π² sin θ). */
+/* The solid-angle density of drawing a map pixel with `probability` and a point uniformly in
+ * it, at sin θ of the point (the pixel's image-plane density over the sphere's 2π² sin θ). */
+inline float pixel_density(float probability, int w, int h, float sin_t)
+{
+  return probability * w * h / (2.0f * M_PI_F * M_PI_F * fmax(sin_t, 1e-9f));
+}
+
+/* The density of the environment's sampling in one pixel. */
 inline float env_pixel_pdf(__global const float *row_pdf, __global const float *col_pdf, int w,
                            int h, int row, int col, float sin_t)
 {
-  return row_pdf[row] * col_pdf[row * w + col] * w * h /
-         (2.0f * M_PI_F * M_PI_F * fmax(sin_t, 1e-9f));
+  return pixel_density(row_pdf[row] * col_pdf[row * w + col], w, h, sin_t);
+}
+
+/* The power heuristic's weight of a strategy of density `own` among three (Veach 1997). */
+inline float power_weight(float own, float other, float third)
+{
+  return own * own / (own * own + other * other + third * third);
+}
+
+/* A point in one of the map's pixels for uniform u: the pixel by the tables' CDFs, the point
+ * uniformly in it; its world direction, pixel and sin θ. */
+inline float3 table_draw(float2 u, __global const float *row_cdf, __global const float *col_cdf,
+                         int w, int h, float rotation, int *pixel, float *sin_t)
+{
+  int row = cdf_search(row_cdf, h, u.x);
+  float dt = (u.x - row_cdf[row]) / fmax(row_cdf[row + 1] - row_cdf[row], 1e-30f);
+  __global const float *cc = col_cdf + row * (w + 1);
+  int col = cdf_search(cc, w, u.y);
+  float ds = (u.y - cc[col]) / fmax(cc[col + 1] - cc[col], 1e-30f);
+  *pixel = row * w + col;
+  return env_direction((col + clamp(ds, 0.0f, 0.999999f)) / w,
+                       (row + clamp(dt, 0.0f, 0.999999f)) / h, rotation, sin_t);
+}
+
+/* The density of the first next-event draw at a pixel: the tables' (the map without its sun,
+ * where it has one) and, with probability `share`, the sun's. */
+inline float next_event_density(__global const float *row_pdf, __global const float *col_pdf,
+                                __global const float *sun_probability, int w, int h, int pixel,
+                                float sin_t, float share)
+{
+  int row = pixel / w;
+  float table = env_pixel_pdf(row_pdf, col_pdf, w, h, row, pixel - row * w, sin_t);
+  return share > 0.0f
+             ? (1.0f - share) * table + share * pixel_density(sun_probability[pixel], w, h, sin_t)
+             : table;
+}
+
+/* The same from the sun's pixels (envmap.py SunTable): one by its CDF, the point uniformly. */
+inline float3 sun_draw(float2 u, __global const float *sun_cdf, __global const int *sun_pixels,
+                       int sun_count, int w, int h, float rotation, int *pixel, float *sin_t)
+{
+  int k = cdf_search(sun_cdf, sun_count, u.x);
+  float dt = (u.x - sun_cdf[k]) / fmax(sun_cdf[k + 1] - sun_cdf[k], 1e-30f);
+  int row = sun_pixels[k] / w, col = sun_pixels[k] - row * w;
+  *pixel = sun_pixels[k];
+  return env_direction((col + clamp(u.y, 0.0f, 0.999999f)) / w,
+                       (row + clamp(dt, 0.0f, 0.999999f)) / h, rotation, sin_t);
 }
 
 inline float env_pdf(__global const float *row_pdf, __global const float *col_pdf, int w, int h,
-                     float rotation, float3 d, int *pixel)
+                     float rotation, float3 d, int *pixel, float *sin_theta)
 {
   float2 cs = env_rotation(rotation);
   float c = cs.x, sn = cs.y;
@@ -272,6 +330,7 @@ inline float env_pdf(__global const float *row_pdf, __global const float *col_pd
   *pixel = row * w + col;
   /* sin θ = sin(acos z) = √((1 − z)(1 + z)): exact factors, no cancellation at the poles */
   float sin_t = sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f));
+  *sin_theta = sin_t;
   return env_pixel_pdf(row_pdf, col_pdf, w, h, row, col, sin_t);
 }
 
@@ -311,7 +370,10 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              const float2 env_params, __global const float *scene_lights,
                              const int scene_light_count, __global const float *row_cdf,
                              __global const float *col_cdf, __global const float *row_pdf,
-                             __global const float *col_pdf, const int first_sample,
+                             __global const float *col_pdf, __global const float *sun_cdf,
+                             __global const int *sun_pixels,
+                             __global const float *sun_probability, const int sun_count,
+                             const float sun_share, const int first_sample,
                              const int samples, const uint seed,
                              const int max_bounces, const float indirect_limit,
                              const int camera_split, const int filtered,
@@ -412,25 +474,34 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       float exposure = cur.exposure;
       int pixel;
       int table = bsdf_table(I, cur.wo); /* the BTF's sampling table for this view, if any */
+      /* The map's sun (envmap.py Environment.sun_tables; sun_count > 0) is drawn on its own
+       * where a small bright source does most harm drawn from the whole table: at the camera's
+       * vertex on a glossy lobe, where each rare find of the sun is a bright sample in its
+       * highlight (1b below). Elsewhere the first draw picks the sun or the rest of the map by
+       * the sun's share of the compensated weight: the two tables then make the compensated
+       * table (mis_tables) exactly, at one draw's cost. */
+      bool split = sun_count > 0 && bounce == 0 &&
+                   (table > 0 || ggx_lobe_probability(I, F) > 0.0f);
+      float share = sun_count > 0 && !split ? sun_share : 0.0f;
       /* 1. Next-event estimation: a direction from the environment's distribution. */
 #if !HAS_ENVIRONMENT /* black: it adds 0; its random numbers are still drawn (same image) */
       (void)next_2d(&smp);
 #else
       {
         float2 u = next_2d(&smp);
-        float u0 = u.x, u1 = u.y;
-        int row = cdf_search(row_cdf, env_h, u0);
-        float dt = (u0 - row_cdf[row]) / fmax(row_cdf[row + 1] - row_cdf[row], 1e-30f);
-        __global const float *cc = col_cdf + row * (env_w + 1);
-        int col = cdf_search(cc, env_w, u1);
-        float ds = (u1 - cc[col]) / fmax(cc[col + 1] - cc[col], 1e-30f);
-        float t_env = (row + clamp(dt, 0.0f, 0.999999f)) / env_h;
-        float3 dir = env_direction((col + clamp(ds, 0.0f, 0.999999f)) / env_w, t_env, rotation);
+        float sin_t;
+        /* (u.x − 0) / (1 − 0) is u.x: a map without a sun draws exactly as before */
+        float3 dir = u.x < share ? sun_draw((float2)(u.x / share, u.y), sun_cdf, sun_pixels,
+                                            sun_count, env_w, env_h, rotation, &pixel, &sin_t)
+                                 : table_draw((float2)((u.x - share) / (1.0f - share), u.y),
+                                              row_cdf, col_cdf, env_w, env_h, rotation, &pixel,
+                                              &sin_t);
         /* the density this draw was made with, from its own pixel: no round trip through
          * env_pdf's atan2 and acos (the same value up to rounding at pixel edges) */
-        pixel = row * env_w + col;
-        float pdf_light = env_pixel_pdf(row_pdf, col_pdf, env_w, env_h, row, col,
-                                        sin(M_PI_F * t_env));
+        float pdf_light = next_event_density(row_pdf, col_pdf, sun_probability, env_w, env_h,
+                                             pixel, sin_t, share);
+        float pdf_sun =
+            split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
         float3 wi = to_frame(&cur, dir);
         float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
         bool visible = wi.z > 0.0f && pdf_light > 0.0f;
@@ -442,9 +513,33 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
 #endif
         if (visible) {
           float3 value = btf_mapped(I, F, &cur, wi);
-          float weight = pdf_light * pdf_light / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
+          float weight = power_weight(pdf_light, pdf_bsdf, pdf_sun);
           *light += throughput * exposure * value * vload3(0, env + 4 * pixel) *
                     env_params.y * (weight / pdf_light);
+        }
+      }
+      /* 1b. The sun on its own: a smooth term of the highlight instead of rare bright draws. */
+      if (split) {
+        int sun;
+        float sin_t;
+        float3 dir = sun_draw(next_2d(&smp), sun_cdf, sun_pixels, sun_count, env_w, env_h,
+                              rotation, &sun, &sin_t);
+        float pdf_sun = pixel_density(sun_probability[sun], env_w, env_h, sin_t);
+        float3 wi = to_frame(&cur, dir);
+        bool visible = wi.z > 0.0f && pdf_sun > 0.0f;
+#if HAS_SHADOWS
+        float ts, us, vs;
+        visible = visible &&
+                  trace(cur.start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us,
+                        &vs) < 0;
+#endif
+        if (visible) {
+          float pdf_light = next_event_density(row_pdf, col_pdf, sun_probability, env_w, env_h,
+                                               sun, sin_t, 0.0f);
+          float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
+          float weight = power_weight(pdf_sun, pdf_light, pdf_bsdf);
+          *light += throughput * exposure * btf_mapped(I, F, &cur, wi) *
+                    vload3(0, env + 4 * sun) * env_params.y * (weight / pdf_sun);
         }
       }
 #endif
@@ -470,8 +565,13 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
 #endif
       if (hit < 0) {
 #if HAS_ENVIRONMENT
-        float pdf_light = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel);
-        float weight = pdf_bsdf * pdf_bsdf / (pdf_light * pdf_light + pdf_bsdf * pdf_bsdf);
+        float sin_t;
+        env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel, &sin_t);
+        float pdf_light = next_event_density(row_pdf, col_pdf, sun_probability, env_w, env_h,
+                                             pixel, sin_t, share);
+        float pdf_sun =
+            split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
+        float weight = power_weight(pdf_bsdf, pdf_light, pdf_sun);
         *light += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
 #endif
         break;

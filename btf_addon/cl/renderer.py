@@ -171,7 +171,10 @@ class CLRenderer:
         #: (core/sampling/envmap.py ``Environment.mis_tables``); False: the plain tables, as
         #: before them (comparisons, docs/accuracy.md).
         self.mis_compensation = True
-        self._env_tables: dict[bool, list] = {}
+        #: The Sampled mode draws a map's sun on its own (``Environment.sun_tables``; with
+        #: mis_compensation only); False: from the whole table, as before (comparisons).
+        self.sun_sampling = True
+        self._env_tables: dict[tuple[bool, bool], list] = {}
 
     def _buffer(self, array, dtype):
         mf = self.cl.mem_flags
@@ -306,15 +309,36 @@ class CLRenderer:
 
     def _next_event_tables(self) -> list:
         """The environment's tables for the Sampled mode's draws, exactly those of
-        core/sampling/envmap.py, uploaded on first use."""
-        key = bool(self.mis_compensation)
+        core/sampling/envmap.py, and its sun's (the kernel's sun_cdf, sun_pixels, a
+        per-pixel probability that is 0 outside the sun, the sun's pixel count (0 for none)
+        and its share of the compensated weight), uploaded on first use."""
+        compensated = bool(self.mis_compensation)
+        key = (compensated, compensated and bool(self.sun_sampling))
         if key not in self._env_tables:
             env = self.scene.environment
-            tables = env.mis_tables if key else env.tables
-            self._env_tables[key] = [
+            sun = None
+            if key[1]:
+                tables, sun = env.sun_tables
+            else:
+                tables = env.mis_tables if compensated else env.tables
+            buffers = [
                 self._buffer(a.ravel(), np.float32)
                 for a in (tables.row_cdf, tables.col_cdf, tables.row_pdf, tables.col_pdf)
             ]
+            if sun is None:  # the kernel reads none of these
+                buffers += [self._buffer(np.zeros(1), dtype) for dtype in (np.float32, np.int32)]
+                buffers += [self._buffer(np.zeros(1), np.float32), np.int32(0), np.float32(0)]
+            else:
+                probability = np.zeros(env.width * env.height, dtype=np.float32)
+                probability[sun.pixels] = sun.probability
+                buffers += [
+                    self._buffer(sun.cdf, np.float32),
+                    self._buffer(sun.pixels, np.int32),
+                    self._buffer(probability, np.float32),
+                    np.int32(len(sun.pixels)),
+                    np.float32(sun.share),
+                ]
+            self._env_tables[key] = buffers
         return self._env_tables[key]
 
     def _world_from_clip(self):
@@ -455,7 +479,8 @@ class CLRenderer:
         preview: Callable[[np.ndarray], None] | None = None,
     ) -> np.ndarray:
         """(h, w, 4) Combined by path tracing: ``samples`` paths per pixel; at every vertex one
-        environment sample and one from the BTF's sampling, with MIS (power heuristic); up to
+        environment sample (at a glossy camera vertex one more of the map's sun, where it has
+        one: ``sun_sampling``) and one from the BTF's sampling, with MIS (power heuristic); up to
         ``max_bounces`` indirect reflections (none where the scene analysis finds no surface
         that can see another), Russian roulette after the second. Samples are rendered in
         progressive passes (``preview`` sees each); how they are split changes no sample (each

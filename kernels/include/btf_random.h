@@ -34,22 +34,28 @@ inline uint reverse_bits(uint x)
 
 /* Owen scrambling of a 32-bit fraction: a hash that only lets higher bits affect lower ones,
  * applied in reversed-bit order. */
-inline uint owen_scramble(uint x, uint seed)
+inline uint owen_hash(uint x, uint seed) /* on the bit-reversed fraction */
 {
-  x = reverse_bits(x);
   x += seed;
   x ^= x * 0x6c50b47cu;
   x ^= x * 0xb82f1e52u;
   x ^= x * 0xc7afe638u;
   x ^= x * 0x8d22f6e6u;
-  return reverse_bits(x);
+  return x;
 }
 
-/* Sobol's second dimension (the first is the bit-reversed index). */
-inline uint sobol_dim1(uint index)
+inline uint owen_scramble(uint x, uint seed)
 {
-  uint result = 0u, v = 1u << 31;
-  for (; index; index >>= 1, v ^= v >> 1) {
+  return reverse_bits(owen_hash(reverse_bits(x), seed));
+}
+
+/* Sobol's second dimension (the first is the bit-reversed index), bit-reversed: the order
+ * owen_hash works in. reverse_bits(v >> 1) = reverse_bits(v) << 1, so the generator's columns
+ * v ^= v >> 1 from 1 << 31 become v ^= v << 1 from 1. */
+inline uint sobol_dim1_reversed(uint index)
+{
+  uint result = 0u, v = 1u;
+  for (; index; index >>= 1, v ^= v << 1) {
     if (index & 1u) {
       result ^= v;
     }
@@ -68,8 +74,11 @@ inline float2 next_2d(Sampler *s)
 {
   uint seed = pcg_hash(s->pixel ^ pcg_hash(s->dim++ * 0x9E3779B9u + 0x632BE5ABu));
   uint i = owen_scramble(s->index, seed); /* shuffled order: decorrelates the dimensions */
-  uint x = owen_scramble(reverse_bits(i), pcg_hash(seed ^ 0xA511E9B3u));
-  uint y = owen_scramble(sobol_dim1(i), pcg_hash(seed ^ 0x63D83595u));
+  /* owen_scramble(sobol point, k) for both dimensions, the point taken in the bit-reversed
+   * order owen_hash works in: Sobol's first dimension reversed is i itself, so the two
+   * reversals around each hash's input cancel (next_2d was 14 % of a Lambertian sample). */
+  uint x = reverse_bits(owen_hash(i, pcg_hash(seed ^ 0xA511E9B3u)));
+  uint y = reverse_bits(owen_hash(sobol_dim1_reversed(i), pcg_hash(seed ^ 0x63D83595u)));
   return (float2)((float)(x >> 8), (float)(y >> 8)) * (1.0f / 16777216.0f);
 }
 

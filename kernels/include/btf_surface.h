@@ -10,7 +10,6 @@ typedef struct {
   float3 wo;    /* view direction in the frame */
   float2 uv;    /* mesh UV */
   float2 btf_uv; /* texture coordinates of the first (UV: only) projection */
-  float2 view;  /* wo as (theta, phi) degrees */
   int material; /* index of the material's packed tables */
   /* The material's mapping (btf_addon/core/mapping.py map_points): up to 3 projections, each
    * with texture coordinates, a tangent frame (t, b with the shading normal n) and a weight. */
@@ -184,7 +183,6 @@ inline SurfacePoint surface_point(float3 o, float3 d, float t, float bu, float b
   sp.t = tt;
   sp.b = cross(n, tt) * (c[11] < 0.0f ? -1.0f : 1.0f) * side;
   sp.wo = (float3)(dot(wo_world, tt), dot(wo_world, sp.b), dot(wo_world, n));
-  sp.view = btf_theta_phi_deg(sp.wo);
   sp.start = (side > 0.0f ? lifted : sp.p) + n * eps; /* lifting assumes the outer side */
   __global const float *mb = blocks + MATERIAL_BLOCK_FLOATS * tri_block[tri];
   sp.material = (int)mb[M_MATERIAL];

@@ -23,7 +23,8 @@ __kernel void pdf_test(__global const float *dirs, __global const float *row_pdf
 {
   int i = get_global_id(0);
   int p;
-  pdf[i] = env_pdf(row_pdf, col_pdf, w, h, rotation, vload3(i, dirs), &p);
+  float sin_t;
+  pdf[i] = env_pdf(row_pdf, col_pdf, w, h, rotation, vload3(i, dirs), &p, &sin_t);
   pixel[i] = p;
 }
 """
