@@ -99,8 +99,7 @@ inline float3 shade_direct(const SurfacePoint *sp, __global const float *ints,
         continue;
       }
 #if HAS_SHADOWS
-      float ts, us, vs;
-      if (trace(sp->start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
+      if (!unoccluded(sp->start, dir, eps, INFINITY, bounds, links, corners)) {
         continue;
       }
 #endif
@@ -292,17 +291,22 @@ inline float3 table_draw(float2 u, __global const float *row_cdf, __global const
                        (row + clamp(dt, 0.0f, 0.999999f)) / h, rotation, sin_t);
 }
 
-/* The density of the first next-event draw at a pixel: the tables' (the map without its sun,
- * where it has one) and, with probability `share`, the sun's. */
-inline float next_event_density(__global const float *row_pdf, __global const float *col_pdf,
-                                __global const float *sun_probability, int w, int h, int pixel,
-                                float sin_t, float share)
+/* The density of the first next-event draw at a pixel: `table`, the tables' density there (the
+ * map without its sun, where it has one), and, with probability `share`, the sun's. */
+inline float next_event_density(float table, __global const float *sun_probability, int w,
+                                int h, int pixel, float sin_t, float share)
 {
-  int row = pixel / w;
-  float table = env_pixel_pdf(row_pdf, col_pdf, w, h, row, pixel - row * w, sin_t);
   return share > 0.0f
              ? (1.0f - share) * table + share * pixel_density(sun_probability[pixel], w, h, sin_t)
              : table;
+}
+
+/* The tables' density at a map pixel. */
+inline float table_density(__global const float *row_pdf, __global const float *col_pdf, int w,
+                           int h, int pixel, float sin_t)
+{
+  int row = pixel / w;
+  return env_pixel_pdf(row_pdf, col_pdf, w, h, row, pixel - row * w, sin_t);
 }
 
 /* The same from the sun's pixels (envmap.py SunTable): one by its CDF, the point uniformly. */
@@ -498,18 +502,16 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                                               &sin_t);
         /* the density this draw was made with, from its own pixel: no round trip through
          * env_pdf's atan2 and acos (the same value up to rounding at pixel edges) */
-        float pdf_light = next_event_density(row_pdf, col_pdf, sun_probability, env_w, env_h,
-                                             pixel, sin_t, share);
+        float pdf_light = next_event_density(
+            table_density(row_pdf, col_pdf, env_w, env_h, pixel, sin_t), sun_probability, env_w,
+            env_h, pixel, sin_t, share);
         float pdf_sun =
             split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
         float3 wi = to_frame(&cur, dir);
         float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
         bool visible = wi.z > 0.0f && pdf_light > 0.0f;
 #if HAS_SHADOWS
-        float ts, us, vs;
-        visible = visible &&
-                  trace(cur.start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us,
-                        &vs) < 0;
+        visible = visible && unoccluded(cur.start, dir, eps, INFINITY, bounds, links, corners);
 #endif
         if (visible) {
           float3 value = btf_mapped(I, F, &cur, wi);
@@ -528,14 +530,10 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         float3 wi = to_frame(&cur, dir);
         bool visible = wi.z > 0.0f && pdf_sun > 0.0f;
 #if HAS_SHADOWS
-        float ts, us, vs;
-        visible = visible &&
-                  trace(cur.start, dir, eps, INFINITY, bounds, links, corners, true, &ts, &us,
-                        &vs) < 0;
+        visible = visible && unoccluded(cur.start, dir, eps, INFINITY, bounds, links, corners);
 #endif
         if (visible) {
-          float pdf_light = next_event_density(row_pdf, col_pdf, sun_probability, env_w, env_h,
-                                               sun, sin_t, 0.0f);
+          float pdf_light = table_density(row_pdf, col_pdf, env_w, env_h, sun, sin_t);
           float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
           float weight = power_weight(pdf_sun, pdf_light, pdf_bsdf);
           *light += throughput * exposure * btf_mapped(I, F, &cur, wi) *
@@ -566,9 +564,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       if (hit < 0) {
 #if HAS_ENVIRONMENT
         float sin_t;
-        env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel, &sin_t);
-        float pdf_light = next_event_density(row_pdf, col_pdf, sun_probability, env_w, env_h,
-                                             pixel, sin_t, share);
+        float map = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel, &sin_t);
+        float pdf_light =
+            next_event_density(map, sun_probability, env_w, env_h, pixel, sin_t, share);
         float pdf_sun =
             split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
         float weight = power_weight(pdf_bsdf, pdf_light, pdf_sun);

@@ -118,9 +118,8 @@ inline float3 blender_lights(const SurfacePoint *sp, Stream I, Stream F,
         continue;
       }
 #if HAS_SHADOWS
-      float ts, us, vs;
       float tmax = isinf(dist) ? INFINITY : dist * (1.0f - 1e-4f);
-      if (trace(sp->start, dir, eps, tmax, bounds, links, corners, true, &ts, &us, &vs) >= 0) {
+      if (!unoccluded(sp->start, dir, eps, tmax, bounds, links, corners)) {
         continue;
       }
 #endif

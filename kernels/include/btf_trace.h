@@ -88,4 +88,13 @@ inline int trace(float3 o, float3 d, float tmin, float tmax, __global const floa
   return hit;
 }
 
+/* Whether nothing lies between start and start + t·dir for t in (eps, tmax): a shadow ray. */
+inline bool unoccluded(float3 start, float3 dir, float eps, float tmax,
+                       __global const float *bounds, __global const int *links,
+                       __global const float *corners)
+{
+  float t, u, v;
+  return trace(start, dir, eps, tmax, bounds, links, corners, true, &t, &u, &v) < 0;
+}
+
 #endif

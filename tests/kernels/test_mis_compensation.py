@@ -15,11 +15,10 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 from cycles_scenes import relative_rmse
+from helpers import sphere_with_checked_mean
 
 from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.sampling.envmap import LUMINANCE, Environment
-from btf_addon.scene.primitives import uv_sphere
-from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 
 def sun_and_sky(h: int = 32, w: int = 64) -> np.ndarray:
@@ -87,16 +86,8 @@ def test_same_integral_less_noise(cl_context, btf):
     below half the plain tables' (measured: Lambertian 0.11×, GGX 0.24×: this sun holds 89 %
     of the map's light, and compensation spends every environment draw on it); a bias or an
     inverted weight fails one or the other."""
-    from btf_addon.cl.renderer import CLRenderer
-
     env = Environment(sun_and_sky(), rotation_z_rad=0.3)
-    camera = Camera(look_at((0.0, -4.0, 1.0), (0, 0, 0)))
-    scene = Scene([uv_sphere(1.0, segments=96, rings=48)], [Material(btf)], camera, env)
-    renderer = CLRenderer(scene, 48, 36, cl_context, film=None)
-    renderer.fixed_launch_split = True
-    virtual = renderer.render_direct(env.virtual_lights(16384)).combined[..., :3]
-    sampled = renderer.render_sampled(2048, seed=5)[..., :3]
-    np.testing.assert_allclose(sampled.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.005)
+    renderer = sphere_with_checked_mean(cl_context, env, btf)
 
     reference = renderer.render_sampled(4096, seed=11)[..., :3]
     renderer.sun_sampling = False  # compensation alone (the sun's own draws: test_sun_sampling)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from cycles_scenes import relative_rmse
+from helpers import sphere_with_checked_mean
 
 from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.sampling.envmap import (
@@ -23,8 +24,6 @@ from btf_addon.core.sampling.envmap import (
     SUN_RATIO,
     Environment,
 )
-from btf_addon.scene.primitives import uv_sphere
-from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
 
 def sun_in_sky(h: int = 64, w: int = 128, sun: float = 60.0) -> np.ndarray:
@@ -120,17 +119,9 @@ def test_sun_draws_keep_the_integral_and_cut_the_noise(cl_context, btf):
     whole table's draws within the spread of three seeds (measured 0.90×; bounds 0.75-1.33).
     A bias, a missing weight (the sun counted twice or not at all) or a wrong density fails
     one or the other."""
-    from btf_addon.cl.renderer import CLRenderer
-
     env = Environment(sun_in_sky(), rotation_z_rad=0.3)
     assert env.sun_tables[1] is not None
-    camera = Camera(look_at((0.0, -4.0, 1.0), (0, 0, 0)))
-    scene = Scene([uv_sphere(1.0, segments=96, rings=48)], [Material(btf)], camera, env)
-    renderer = CLRenderer(scene, 48, 36, cl_context, film=None)
-    renderer.fixed_launch_split = True
-    virtual = renderer.render_direct(env.virtual_lights(16384)).combined[..., :3]
-    sampled = renderer.render_sampled(2048, seed=5)[..., :3]
-    np.testing.assert_allclose(sampled.mean(axis=(0, 1)), virtual.mean(axis=(0, 1)), rtol=0.005)
+    renderer = sphere_with_checked_mean(cl_context, env, btf)
 
     reference = renderer.render_sampled(4096, seed=11)[..., :3]
     errors = {}
