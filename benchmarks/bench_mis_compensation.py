@@ -1,13 +1,14 @@
-"""MIS compensation of the World's next-event draws and the sun's draws of its own: error against
-time, side by side in one process (core/sampling/envmap.py ``Environment.mis_tables``,
-``Environment.sun_tables``).
+"""MIS compensation of the World's next-event draws, the sun's draws of its own and the lobe
+window: error against time, side by side in one process (core/sampling/envmap.py
+``Environment.mis_tables``, ``Environment.sun_tables``, ``Environment.lobe_window``).
 
 The scenes and references of benchmarks/bench_camera_split.py ``bench_renderers`` (Cycles at
 16384 samples for the spheres, ours at 16384 for the demo), F12's defaults (Blender's default
 film filter, 4 samples per camera ray), Clamp Indirect off. One CLRenderer per scene renders
 with the plain tables (draws ∝ luminance · sin θ, as before), the compensated ones
-(∝ max(L − L̄, 0) · sin θ), and the compensated ones with the map's sun drawn on its own
-(F12's default; forest.exr and city.exr both have one) alternately, the same seeds for all;
+(∝ max(L − L̄, 0) · sin θ), the compensated ones with the map's sun drawn on its own
+(forest.exr and city.exr both have one), and those with the lobe window at glossy camera
+vertices (F12's default; forest.exr has one, city.exr not) alternately, the same seeds for all;
 time is the median, error the root mean square of the seeds' relative RMSE. "Gain at equal
 error" is (t·e²) plain over (t·e²) of the row: how much sooner it reaches the plain one's error.
 
@@ -25,8 +26,14 @@ from common import table
 
 SAMPLES = (64, 256, 1024)
 SEEDS = 6
-#: (label, compensated tables, the sun's own draws); the first is what the gains are against
-CONFIGS = (("plain", False, False), ("compensated", True, False), ("compensated + sun", True, True))
+#: (label, compensated tables, the sun's own draws, the lobe window); the first is what the
+#: gains are against
+CONFIGS = (
+    ("plain", False, False, False),
+    ("compensated", True, False, False),
+    ("compensated + sun", True, True, False),
+    ("compensated + sun + window", True, True, True),
+)
 
 
 def main(quick: bool = False) -> str:
@@ -36,15 +43,17 @@ def main(quick: bool = False) -> str:
     rows = []
     for name, renderer, reference, bounces in bench_renderers("btf-bench-mis-"):
         renderer.samples_per_camera_ray = 4  # F12's default
-        for _, compensated, sun in CONFIGS:  # every table uploaded outside the timing
-            renderer.mis_compensation, renderer.sun_sampling = compensated, sun
+        for config in CONFIGS:  # every table uploaded outside the timing
+            _, renderer.mis_compensation, renderer.sun_sampling, renderer.lobe_window = config
             renderer.render_sampled(1)
         for n in samples:
             seconds = {config: [] for config in CONFIGS}
             errors = {config: [] for config in CONFIGS}
             for seed in range(SEEDS):
                 for config in CONFIGS:  # alternating: all meet the same load
-                    _, renderer.mis_compensation, renderer.sun_sampling = config
+                    _, renderer.mis_compensation, renderer.sun_sampling, renderer.lobe_window = (
+                        config
+                    )
                     t0 = time.perf_counter()
                     image = renderer.render_sampled(n, seed, None, bounces)[..., :3]
                     seconds[config].append(time.perf_counter() - t0)

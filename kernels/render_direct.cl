@@ -270,10 +270,11 @@ inline float env_pixel_pdf(__global const float *row_pdf, __global const float *
   return pixel_density(row_pdf[row] * col_pdf[row * w + col], w, h, sin_t);
 }
 
-/* The power heuristic's weight of a strategy of density `own` among three (Veach 1997). */
-inline float power_weight(float own, float other, float third)
+/* The power heuristic's weight of a strategy of density `own` among up to four (Veach 1997;
+ * a strategy not drawn at this vertex passes 0). */
+inline float power_weight(float own, float a, float b, float c)
 {
-  return own * own / (own * own + other * other + third * third);
+  return own * own / (own * own + a * a + b * b + c * c);
 }
 
 /* A point in one of the map's pixels for uniform u: the pixel by the tables' CDFs, the point
@@ -338,6 +339,8 @@ inline float env_pdf(__global const float *row_pdf, __global const float *col_pd
   return env_pixel_pdf(row_pdf, col_pdf, w, h, row, col, sin_t);
 }
 
+#include "btf_env_window.h"
+
 /* A path's indirect light (everything after its first bounce) scaled so that no channel exceeds
  * `limit` (Cycles' Clamp Indirect: limit 0 is off). Bright, rare paths (a small light source
  * seen through a glossy bounce) otherwise stay as fireflies for thousands of samples; the
@@ -377,7 +380,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global const float *col_pdf, __global const float *sun_cdf,
                              __global const int *sun_pixels,
                              __global const float *sun_probability, const int sun_count,
-                             const float sun_share, const int first_sample,
+                             const float sun_share, __global const float *window_row_pdf,
+                             __global const float *window_cdf, const int window_block,
+                             const int first_sample,
                              const int samples, const uint seed,
                              const int max_bounces, const float indirect_limit,
                              const int camera_split, const int filtered,
@@ -491,6 +496,17 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
 #if !HAS_ENVIRONMENT /* black: it adds 0; its random numbers are still drawn (same image) */
       (void)next_2d(&smp);
 #else
+      /* The lobe window (include/btf_env_window.h; 1c. below): at a split vertex whose light
+       * is mostly a GGX lobe's (the GGX codec, a metallic Principled), where the map has one,
+       * the table drawn beside the sun restricted to the lobe's neighbourhood. */
+      LobeWindow win;
+      win.mass = 0.0f;
+      if (split && window_block > 0 && table == 0 && ggx_lobe_probability(I, F) >= 0.9f) {
+        float3 mirror = 2.0f * cur.wo.z * cur.n -
+                        (cur.wo.x * cur.t + cur.wo.y * cur.b + cur.wo.z * cur.n);
+        win = lobe_window(mirror, sqrt(FTAB(F_ALPHA2)), window_row_pdf, window_cdf,
+                          window_block, env_w, env_h, rotation);
+      }
       {
         float2 u = next_2d(&smp);
         float sin_t;
@@ -515,7 +531,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
 #endif
         if (visible) {
           float3 value = btf_mapped(I, F, &cur, wi);
-          float weight = power_weight(pdf_light, pdf_bsdf, pdf_sun);
+          float pdf_window = lobe_window_density(&win, window_block, env_w, env_h, pixel,
+                                                 pdf_light);
+          float weight = power_weight(pdf_light, pdf_bsdf, pdf_sun, pdf_window);
           *light += throughput * exposure * value * vload3(0, env + 4 * pixel) *
                     env_params.y * (weight / pdf_light);
         }
@@ -535,9 +553,31 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
         if (visible) {
           float pdf_light = table_density(row_pdf, col_pdf, env_w, env_h, sun, sin_t);
           float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
-          float weight = power_weight(pdf_sun, pdf_light, pdf_bsdf);
+          /* the window draws from the table beside the sun: 0 on the sun's pixels */
+          float weight = power_weight(pdf_sun, pdf_light, pdf_bsdf, 0.0f);
           *light += throughput * exposure * btf_mapped(I, F, &cur, wi) *
                     vload3(0, env + 4 * sun) * env_params.y * (weight / pdf_sun);
+        }
+      }
+      /* 1c. The lobe window: the map's light where a narrow lobe reflects it. */
+      if (win.mass > 0.0f) {
+        int wp;
+        float sin_t;
+        float3 dir = lobe_window_draw(&win, next_2d(&smp), window_cdf, row_pdf, col_cdf,
+                                      window_block, env_w, env_h, rotation, &wp, &sin_t);
+        float pdf_light = table_density(row_pdf, col_pdf, env_w, env_h, wp, sin_t);
+        float pdf_window = pdf_light / win.mass;
+        float3 wi = to_frame(&cur, dir);
+        bool visible = wi.z > 0.0f && pdf_window > 0.0f;
+#if HAS_SHADOWS
+        visible = visible && unoccluded(cur.start, dir, eps, INFINITY, bounds, links, corners);
+#endif
+        if (visible) {
+          /* a pixel of the table beside the sun is none of the sun's: its density there is 0 */
+          float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
+          float weight = power_weight(pdf_window, pdf_light, pdf_bsdf, 0.0f);
+          *light += throughput * exposure * btf_mapped(I, F, &cur, wi) *
+                    vload3(0, env + 4 * wp) * env_params.y * (weight / pdf_window);
         }
       }
 #endif
@@ -569,7 +609,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
             next_event_density(map, sun_probability, env_w, env_h, pixel, sin_t, share);
         float pdf_sun =
             split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
-        float weight = power_weight(pdf_bsdf, pdf_light, pdf_sun);
+        float pdf_window = lobe_window_density(&win, window_block, env_w, env_h, pixel, map);
+        float weight = power_weight(pdf_bsdf, pdf_light, pdf_sun, pdf_window);
         *light += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
 #endif
         break;

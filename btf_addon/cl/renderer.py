@@ -174,7 +174,11 @@ class CLRenderer:
         #: The Sampled mode draws a map's sun on its own (``Environment.sun_tables``; with
         #: mis_compensation only); False: from the whole table, as before (comparisons).
         self.sun_sampling = True
-        self._env_tables: dict[tuple[bool, bool], list] = {}
+        #: At a glossy camera vertex under a map with a sun, one more draw from the map
+        #: restricted to a window around the lobe's mirror direction (``Environment.lobe_window``;
+        #: sun_sampling only); False: as before (comparisons).
+        self.lobe_window = True
+        self._env_tables: dict[tuple[bool, bool, bool], list] = {}
 
     def _buffer(self, array, dtype):
         mf = self.cl.mem_flags
@@ -311,9 +315,11 @@ class CLRenderer:
         """The environment's tables for the Sampled mode's draws, exactly those of
         core/sampling/envmap.py, and its sun's (the kernel's sun_cdf, sun_pixels, a
         per-pixel probability that is 0 outside the sun, the sun's pixel count (0 for none)
-        and its share of the compensated weight), uploaded on first use."""
+        and its share of the compensated weight) and the lobe window's block sums and block
+        size (0 for none), uploaded on first use."""
         compensated = bool(self.mis_compensation)
-        key = (compensated, compensated and bool(self.sun_sampling))
+        with_sun = compensated and bool(self.sun_sampling)
+        key = (compensated, with_sun, with_sun and bool(self.lobe_window))
         if key not in self._env_tables:
             env = self.scene.environment
             sun = None
@@ -337,6 +343,16 @@ class CLRenderer:
                     self._buffer(probability, np.float32),
                     np.int32(len(sun.pixels)),
                     np.float32(sun.share),
+                ]
+            window = env.lobe_window if key[2] else None
+            if window is None:  # block 0: the kernel draws no window and reads neither
+                buffers += [self._buffer(np.zeros(1), np.float32) for _ in range(2)]
+                buffers += [np.int32(0)]
+            else:
+                buffers += [
+                    self._buffer(window.row_pdf, np.float32),
+                    self._buffer(window.cdf.ravel(), np.float32),
+                    np.int32(window.block),
                 ]
             self._env_tables[key] = buffers
         return self._env_tables[key]

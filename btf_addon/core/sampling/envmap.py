@@ -36,6 +36,16 @@ SUN_RATIO = 16.0
 SUN_MIN_SHARE = 0.1
 #: …in at most this fraction of its pixels (a compact source, not a bright half of the sky).
 SUN_MAX_PIXELS = 0.01
+#: A map with a sun gets the lobe window (``Environment.lobe_window``) where the rest of its
+#: light is patchy: at least WINDOW_MIN_SHARE of the compensated weight beside the sun lies in
+#: pixels at least WINDOW_RATIO times the mean luminance (forest.exr: 0.70, city.exr: 0.40).
+WINDOW_RATIO = 4.0
+WINDOW_MIN_SHARE = 0.6
+#: The lobe window's block map (``lobe_window_table``) has at most this many rows of blocks…
+WINDOW_BLOCK_ROWS = 128
+#: …of at most this many pixels a side (kernels/include/btf_env_window.h WINDOW_BLOCK_MAX): a
+#: map more than 8192 pixels tall gets no window.
+WINDOW_MAX_BLOCK = 64
 
 
 class SamplingTables(NamedTuple):
@@ -58,6 +68,39 @@ class SunTable(NamedTuple):
     probability: np.ndarray  # (K,) each pixel's probability
     share: float  # the sun's share of the compensated weight: where the kernels draw it or
     # the rest of the map by this share, the two make mis_tables exactly
+
+
+class LobeWindowTable(NamedTuple):
+    """A table's pixel probabilities summed over blocks of ``block`` × ``block`` pixels
+    (partial at the right and bottom edges), laid out as SamplingTables are: each row of
+    blocks' probability (row_pdf) and the CDF over its blocks (cdf, (rows, cols + 1)). The
+    kernel's lobe-window draws (kernels/render_direct.cl, "1c.") sum a window's blocks row by
+    row from it, then pick a pixel inside the drawn block from the table itself. float32, as
+    the kernels read them."""
+
+    block: int
+    row_pdf: np.ndarray  # (rows,)
+    cdf: np.ndarray  # (rows, cols + 1) each row from 0 to 1 (0 throughout an empty row)
+
+
+def lobe_window_table(tables: SamplingTables) -> LobeWindowTable:
+    """``tables``' block sums for the lobe-window draws, from its float32 probabilities
+    (row_pdf · col_pdf, what the kernel reads) summed in float64. Blocks are square, as many
+    rows of them as WINDOW_BLOCK_ROWS allows: a window the kernel sums is at most that many
+    rows, whatever the map's size, and a drawn block's pixels are at most block² to pick from
+    (the 4096 × 2048 map: 16 × 16)."""
+    h, w = tables.col_pdf.shape
+    block = -(-h // WINDOW_BLOCK_ROWS)
+    rows, cols = -(-h // block), -(-w // block)
+    probability = np.zeros((rows * block, cols * block))
+    probability[:h, :w] = tables.col_pdf
+    probability[:h, :w] *= np.asarray(tables.row_pdf, dtype=np.float64)[:, None]
+    sums = probability.reshape(rows, block, cols, block).sum(axis=(1, 3))
+    row_pdf = sums.sum(axis=1)
+    cdf = np.zeros((rows, cols + 1))
+    np.cumsum(sums, axis=1, out=cdf[:, 1:])
+    cdf /= np.where(row_pdf > 0.0, row_pdf, 1.0)[:, None]
+    return LobeWindowTable(block, row_pdf.astype(np.float32), cdf.astype(np.float32))
 
 
 def sampling_tables(weight: np.ndarray) -> SamplingTables:
@@ -277,6 +320,9 @@ class Environment:
             or not inside < total  # the sun is all there is: the compensated tables are it
         ):
             return _float32(sampling_tables(excess)), None  # mis_tables, from this excess
+        # the lobe window's rule, before the sun leaves the excess
+        bright = excess >= (WINDOW_RATIO - 1.0) * self.mean_luminance * self._sin_rows[:, None]
+        self._patchy_share = float((excess[bright].sum() - inside) / (total - inside))
         pixels = np.flatnonzero(sun)
         weight = excess.ravel()[pixels]  # the compensated weights, within the sun
         cdf = np.concatenate([[0.0], np.cumsum(weight)])
@@ -286,6 +332,21 @@ class Environment:
         table = SunTable(pixels.astype(np.int32), cdf.astype(np.float32), probability, share)
         excess[sun] = 0.0
         return _float32(sampling_tables(excess)), table
+
+    @functools.cached_property
+    def lobe_window(self) -> LobeWindowTable | None:
+        """The block sums of the tables drawn beside the sun (``sun_tables``), for the lobe
+        window drawn at a glossy camera vertex (kernels/include/btf_env_window.h). None (no
+        window) for a map without a sun, one whose light beside the sun is not patchy (see
+        WINDOW_MIN_SHARE: where it is smooth the lobe's own draws find it, and the window
+        cost city.exr's GGX sphere 20 % more per sample for nothing) or one too tall for the
+        kernel's block. Cached with the Environment: F12 after F12 of one World builds it
+        once."""
+        tables, sun = self.sun_tables
+        too_tall = self.height > WINDOW_BLOCK_ROWS * WINDOW_MAX_BLOCK
+        if sun is None or too_tall or self._patchy_share < WINDOW_MIN_SHARE:
+            return None
+        return lobe_window_table(tables)
 
     # --- mapping ---------------------------------------------------------------------------
     def _rot(self, angle: float) -> np.ndarray:
