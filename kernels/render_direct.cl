@@ -41,18 +41,6 @@
 #include "btf_filter.h"
 
 
-/* atan2(y, x) over the whole circle from the decode's polynomial atan (include/btf_angles.inc,
- * |error| < 1.1e-7 rad): PoCL's scalar atan2 was a tenth of a path-traced sample's time. */
-inline float env_atan2(float y, float x)
-{
-  float ay = fabs(y), ax = fabs(x);
-  float hi = fmax(ay, ax), lo = fmin(ay, ax);
-  float a = btf_atan_unit(hi > 0.0f ? lo / hi : 0.0f);
-  a = ay > ax ? M_PI_2_F - a : a;
-  a = signbit(x) ? M_PI_F - a : a; /* −0 too: atan2(±0, −0) = ±π */
-  return copysign(a, y);
-}
-
 /* cos and sin of the World's rotation; (1, 0) exactly for none, without the argument reduction
  * of PoCL's cos/sin (most Worlds are not rotated). */
 inline float2 env_rotation(float angle)
@@ -66,7 +54,7 @@ inline float3 env_lookup(__global const float *env, int w, int h, float2 params,
   float2 cs = env_rotation(params.x);
   float c = cs.x, s = cs.y;
   float3 m = normalize((float3)(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
-  float u = (M_PI_F - env_atan2(m.y, m.x)) / (2.0f * M_PI_F);
+  float u = (M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F);
   float v = acos(clamp(m.z, -1.0f, 1.0f)) / M_PI_F;
   float fx = u * w - 0.5f, fy = clamp(v * h - 0.5f, 0.0f, (float)(h - 1));
   int x0 = (int)floor(fx), y0 = (int)floor(fy);
@@ -328,7 +316,7 @@ inline float env_pdf(__global const float *row_pdf, __global const float *col_pd
   float2 cs = env_rotation(rotation);
   float c = cs.x, sn = cs.y;
   float3 m = (float3)(c * d.x - sn * d.y, sn * d.x + c * d.y, d.z);
-  float s = btf_mod((M_PI_F - env_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
+  float s = btf_mod((M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
   float z = clamp(m.z, -1.0f, 1.0f);
   float t = acos(z) / M_PI_F;
   int col = min((int)(s * w), w - 1), row = min((int)(t * h), h - 1);

@@ -56,7 +56,7 @@ inline LobeWindow lobe_window(float3 mirror, float alpha, __global const float *
   float2 cs = env_rotation(rotation);
   float3 m = (float3)(cs.x * mirror.x - cs.y * mirror.y, cs.y * mirror.x + cs.x * mirror.y,
                       mirror.z);
-  float s = btf_mod((M_PI_F - env_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
+  float s = btf_mod((M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
   float z = clamp(m.z, -1.0f, 1.0f);
   float theta = acos(z), sin_theta = sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f));
   float rows_per_radian = (float)rows / M_PI_F;

@@ -1,7 +1,8 @@
-"""The final render's environment maths (kernels/render_direct.cl) against float64 numpy:
-``env_atan2`` (the decode's polynomial atan over the whole circle, in place of PoCL's scalar
-atan2) and ``env_pdf`` (the solid-angle density of a direction and its pixel) against
-core/sampling/envmap.py ``Environment``, rotated and not, poles included."""
+"""The final render's angle and environment maths against float64 numpy: ``btf_atan2``
+(kernels/include/btf_packed.h: the decode's polynomial atan over the whole circle, in place of
+PoCL's scalar atan2), ``btf_theta_phi_deg`` (a direction's angles for the BTF's decode, through
+it) and ``env_pdf`` (kernels/render_direct.cl: the solid-angle density of a direction and its
+pixel) against core/sampling/envmap.py ``Environment``, rotated and not, poles included."""
 
 from __future__ import annotations
 
@@ -14,7 +15,13 @@ TEST_KERNELS = """
 __kernel void atan2_test(__global const float *y, __global const float *x, __global float *out)
 {
   int i = get_global_id(0);
-  out[i] = env_atan2(y[i], x[i]);
+  out[i] = btf_atan2(y[i], x[i]);
+}
+
+__kernel void angles_test(__global const float *dirs, __global float *out)
+{
+  int i = get_global_id(0);
+  vstore2(btf_theta_phi_deg(vload3(i, dirs)), i, out);
 }
 
 __kernel void pdf_test(__global const float *dirs, __global const float *row_pdf,
@@ -61,7 +68,7 @@ def _run(cl_context, kernel, n, inputs, outputs):
         cl.enqueue_copy(queue, out, buf)
 
 
-def test_env_atan2_matches_libm_over_the_whole_circle(cl_context, program):
+def test_btf_atan2_matches_libm_over_the_whole_circle(cl_context, program):
     import pyopencl as cl
 
     angles = np.linspace(-np.pi, np.pi, 40001)
@@ -77,6 +84,49 @@ def test_env_atan2_matches_libm_over_the_whole_circle(cl_context, program):
     # π − a near ±π: 4e-7 rad, a 4e-8 of a turn (an environment pixel is 1/width of one).
     np.testing.assert_allclose(out, expected, rtol=0, atol=4e-7)
     assert np.array_equal(np.signbit(out[-8:]), np.signbit(expected[-8:]))
+
+
+def test_direction_angles_match_libm_at_poles_and_seams(cl_context, program):
+    """θ = atan2(|d.xy|, d.z) and φ in [0, 360) against float64 acos and atan2 of the unit
+    vector: random directions of three lengths (the decode's callers pass unit vectors; the
+    angles must not care), the poles, directions 1e-4 from them and the seam φ = 0/360.
+    φ in [0, 360]: just below 0 rounds to 360.0 in float32, as it did through libm."""
+    import pyopencl as cl
+
+    rng = np.random.default_rng(3)
+    unit = rng.normal(size=(30000, 3))
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    special = np.array(
+        [
+            [0, 0, 1],
+            [0, 0, -1],
+            [1e-4, 0, 1],
+            [0, -1e-4, -1],
+            [1, 0, 0],
+            [1, -1e-7, 0],
+            [1, 1e-7, 0],
+            [-1, 0, 0],
+            [0, 1, 0],
+            [0, -1, 0],
+        ],
+        dtype=np.float64,
+    )
+    unit = np.concatenate([unit, special / np.linalg.norm(special, axis=1, keepdims=True)])
+    scale = np.repeat([1.0, 0.999, 3.0], len(unit) // 3 + 1)[: len(unit), None]
+    dirs = (unit * scale).astype(np.float32)
+    out = np.empty((len(dirs), 2), np.float32)
+    _run(cl_context, cl.Kernel(program, "angles_test"), len(dirs), [dirs], [out])
+    d = dirs.astype(np.float64)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    theta = np.degrees(np.arccos(np.clip(d[:, 2], -1.0, 1.0)))
+    phi = np.mod(np.degrees(np.arctan2(d[:, 1], d[:, 0])), 360.0)
+    # btf_atan2's 4e-7 rad (test above) in degrees, and float32 rounding of up to 360°
+    # (3e-5°); φ compared on the circle (359.99999° and 0° are neighbours)
+    np.testing.assert_allclose(out[:, 0], theta, rtol=0, atol=1e-4)
+    gap = np.abs(np.mod(out[:, 1] - phi + 180.0, 360.0) - 180.0)
+    assert gap.max() < 1e-4
+    # a φ just below 0 rounds to 360.0 in float32 (as with libm's atan2): the decode wraps it
+    assert ((out[:, 1] >= 0.0) & (out[:, 1] <= 360.0)).all()
 
 
 @pytest.mark.parametrize("rotation", [0.0, 0.7, -2.5])
