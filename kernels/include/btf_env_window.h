@@ -139,8 +139,12 @@ inline float3 lobe_window_draw(const LobeWindow *win, float2 u, __global const f
   int b1 = win->col0 + win->cols - a1; /* the wrapped piece is blocks [0, b1) */
   float first = bc[a1] - bc[a0], span = first + (bc[b1] - bc[0]);
   float x = u.y * span;
-  float at = x < first ? bc[a0] + x : bc[0] + (x - first);
-  int block_col = cdf_search(bc, cols, at);
+  bool wrapped = b1 > 0 && !(x < first);
+  float at = wrapped ? bc[0] + (x - first) : bc[a0] + x;
+  /* kept inside the window's piece: rounding can put `at` on the piece's last CDF value,
+   * which the search may answer with a block past it (the density would not match) */
+  int block_col = wrapped ? clamp(cdf_search(bc, cols, at), 0, b1 - 1)
+                          : clamp(cdf_search(bc, cols, at), a0, a1 - 1);
   /* the pixel: a row of the block by its probability in the block's columns… */
   int row0 = block_row * block, rows_in = min(block, h - row0);
   int col0 = block_col * block, col1 = min(col0 + block, w);
