@@ -44,8 +44,9 @@ inline float block_span(__global const float *cdf, int cols, int c0, int n)
  * angular radius rho is twice the half-vector angle whose tangent is alpha, inside which a GGX
  * lobe's reflection holds half its light (tan² θh is distributed as x / (α² + x)); of 0.5–1.5×
  * that radius this one measured best on the demo (docs/accuracy.md, "The lobe window"). Any
- * window is unbiased: its size only moves the noise. Four transcendental calls: the rest comes
- * from the half-angle formulas (cos rho, sin rho of tan(rho / 2) = alpha) and sums of angles. */
+ * window is unbiased: its size only moves the noise. Every angle through btf_atan2 (the
+ * decode's polynomial, btf_packed.h), the rest from the half-angle formulas (cos rho, sin rho
+ * of tan(rho / 2) = alpha) and sums of angles: no library call unless rho is clamped. */
 inline LobeWindow lobe_window(float3 mirror, float alpha, __global const float *block_row_pdf,
                               __global const float *block_cdf, int block, int w, int h,
                               float rotation)
@@ -58,10 +59,11 @@ inline LobeWindow lobe_window(float3 mirror, float alpha, __global const float *
                       mirror.z);
   float s = btf_mod((M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
   float z = clamp(m.z, -1.0f, 1.0f);
-  float theta = acos(z), sin_theta = sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f));
+  float sin_theta = sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f));
+  float theta = btf_atan2(sin_theta, z);
   float rows_per_radian = (float)rows / M_PI_F;
   float a2 = alpha * alpha;
-  float rho = 2.0f * atan(alpha), cos_rho = (1.0f - a2) / (1.0f + a2);
+  float rho = 2.0f * btf_atan2(alpha, 1.0f), cos_rho = (1.0f - a2) / (1.0f + a2);
   float sin_rho = 2.0f * alpha / (1.0f + a2);
   float most = 0.5f * (float)(WINDOW_ROWS - 1) / rows_per_radian; /* the rows that fit */
   if (rho > most) {
@@ -79,7 +81,8 @@ inline LobeWindow lobe_window(float3 mirror, float alpha, __global const float *
   win.col0 = 0;
   win.cols = cols;
   if (sin_rho < sin_edge) {
-    float half_width = asin(sin_rho / sin_edge) / (2.0f * M_PI_F); /* in s */
+    float x = sin_rho / sin_edge; /* asin x = atan2(x, √(1 − x²)) */
+    float half_width = btf_atan2(x, sqrt(fmax(1.0f - x * x, 0.0f))) / (2.0f * M_PI_F); /* in s */
     int c0 = (int)floor((s - half_width) * cols), c1 = (int)floor((s + half_width) * cols);
     if (c1 - c0 + 1 < cols) {
       win.col0 = c0 < 0 ? c0 + cols : c0;

@@ -343,7 +343,7 @@ class Environment:
         window drawn at a glossy camera vertex (kernels/include/btf_env_window.h). None (no
         window) for a map without a sun, one whose light beside the sun is not patchy (see
         WINDOW_MIN_SHARE: where it is smooth the lobe's own draws find it, and the window
-        cost city.exr's GGX sphere 20 % more per sample for nothing) or one too tall for the
+        cost city.exr's GGX sphere 18–31 % more per sample for nothing) or one too tall for the
         kernel's block. Cached with the Environment: F12 after F12 of one World builds it
         once."""
         tables, sun = self.sun_tables
