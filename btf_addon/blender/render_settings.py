@@ -118,7 +118,9 @@ class BTFRenderSettings(PropertyGroup):
         description="Sampled final render with anti-aliasing: this many consecutive samples "
         "of a pixel share one camera ray through the pixel filter and light its surface "
         "point each their own way; the same image in the end, reached in less time where "
-        "lighting is noisier than edges (1: a camera ray per sample, as Cycles)",
+        "lighting is noisier than edges (1: a camera ray per sample, as Cycles). A "
+        "mirror-like GGX surface (roughness below about 0.2) always takes a camera ray per "
+        "sample: its noise is its highlight across the pixel",
     )
     use_adaptive_sampling: BoolProperty(
         name="Adaptive Sampling",

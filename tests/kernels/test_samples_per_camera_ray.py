@@ -6,7 +6,8 @@ is the fraction of a pixel's samples whose camera ray met a surface, so with gro
 samples sharing a ray every alpha is a multiple of 1/k (also when a launch starts inside a
 group, which traces the group's ray again), and with 1 the silhouette has alphas between.
 And sharing changes no expectation: the mean of many seeds equals that of a ray per sample
-within the seeds' own noise."""
+within the seeds' own noise. A pixel under a sharp GGX lobe takes a ray per sample whatever
+the split: its image is the one of a ray per sample, bit for bit."""
 
 from __future__ import annotations
 
@@ -78,3 +79,37 @@ def test_sharing_changes_no_expectation(renderer):
     outside = np.abs(diff) > 4.5 * se + 1e-6
     assert outside.any(axis=-1).sum() <= 2, np.argwhere(outside)
     assert abs(float(four.mean()) / float(one.mean()) - 1.0) < 0.005
+
+
+def interior(alpha: np.ndarray) -> np.ndarray:
+    """Pixels whose 3 × 3 neighbourhood is fully covered: their centre ray meets the sphere."""
+    full = alpha >= 1.0
+    inner = full.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            inner &= np.roll(np.roll(full, dy, axis=0), dx, axis=1)
+    inner[[0, -1], :] = inner[:, [0, -1]] = False
+    return inner
+
+
+def test_a_sharp_lobe_takes_a_ray_per_sample(cl_context, renderer):
+    """Under a GGX lobe below SHARP_LOBE_ALPHA2 (roughness 0.2: α² = 0.0016) a pixel takes a
+    camera ray per sample whatever the split asks (render_direct.cl sharp_lobe_at_centre): its
+    covered pixels are those of a ray per sample, bit for bit. The module's roughness 0.3
+    sphere (α² = 0.0081) keeps the groups: the same pixels differ, so the check could fail."""
+    from btf_addon.cl.renderer import CLRenderer
+
+    sharp_scene = Scene(
+        [uv_sphere(1.0, 24, 12)],
+        [Material(GGXBTF(0.8, 0.2))],
+        renderer.scene.camera,
+        renderer.scene.environment,
+    )
+    sharp = CLRenderer(sharp_scene, W, H, cl_context)
+    sharp.fixed_launch_split = True
+    covered = interior(_render(sharp, 1, 16, seed=3, transparent=True)[..., 3])
+    assert covered.sum() >= 20
+    one, four = (_render(sharp, k, 16, seed=3)[covered] for k in (1, 4))
+    np.testing.assert_array_equal(four, one)
+    rough_one, rough_four = (_render(renderer, k, 16, seed=3)[covered] for k in (1, 4))
+    assert (rough_four != rough_one).any(axis=-1).mean() > 0.5
