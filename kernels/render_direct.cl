@@ -48,13 +48,24 @@ inline float2 env_rotation(float angle)
   return angle == 0.0f ? (float2)(1.0f, 0.0f) : (float2)(cos(angle), sin(angle));
 }
 
+/* World direction d in the map's frame: the World's Z rotation undone (envmap.py: m = R_z(γ)·d). */
+inline float3 env_map_vector(float3 d, float rotation)
+{
+  float2 cs = env_rotation(rotation);
+  return (float3)(cs.x * d.x - cs.y * d.y, cs.y * d.x + cs.x * d.y, d.z);
+}
+
+/* The map's s across of map-frame vector m, in [0, 1] (1 only where atan2 gives −π). */
+inline float env_map_s(float3 m)
+{
+  return (M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F);
+}
+
 inline float3 env_lookup(__global const float *env, int w, int h, float2 params, float3 d)
 {
   /* As shaders/env_lib.glsl: Blender's orientation, bilinear, wrapping in u. */
-  float2 cs = env_rotation(params.x);
-  float c = cs.x, s = cs.y;
-  float3 m = normalize((float3)(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
-  float u = (M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F);
+  float3 m = normalize(env_map_vector(d, params.x));
+  float u = env_map_s(m);
   float v = acos(clamp(m.z, -1.0f, 1.0f)) / M_PI_F;
   float fx = u * w - 0.5f, fy = clamp(v * h - 0.5f, 0.0f, (float)(h - 1));
   int x0 = (int)floor(fx), y0 = (int)floor(fy);
@@ -313,10 +324,8 @@ inline float3 sun_draw(float2 u, __global const float *sun_cdf, __global const i
 inline float env_pdf(__global const float *row_pdf, __global const float *col_pdf, int w, int h,
                      float rotation, float3 d, int *pixel, float *sin_theta)
 {
-  float2 cs = env_rotation(rotation);
-  float c = cs.x, sn = cs.y;
-  float3 m = (float3)(c * d.x - sn * d.y, sn * d.x + c * d.y, d.z);
-  float s = btf_mod((M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
+  float3 m = env_map_vector(d, rotation);
+  float s = btf_mod(env_map_s(m), 1.0f);
   float z = clamp(m.z, -1.0f, 1.0f);
   float t = acos(z) / M_PI_F;
   int col = min((int)(s * w), w - 1), row = min((int)(t * h), h - 1);

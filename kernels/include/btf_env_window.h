@@ -14,7 +14,8 @@
  * reaches a pole). A draw picks a block by the window's sums, then a pixel in it by the
  * table's own probabilities, so a pixel's probability is its table probability over the
  * window's: its density is the table's density / mass, inside the window, and 0 outside.
- * Included by render_direct.cl after env_direction, table_density and cdf_search. */
+ * Included by render_direct.cl after env_map_vector, env_direction, table_density and
+ * cdf_search. */
 
 /* Rows of blocks a window may span (its sums live in the kernel's private memory): rho is
  * clamped to fit, so with envmap.py WINDOW_BLOCK_ROWS = 128 a window is at most 45° tall. */
@@ -54,10 +55,8 @@ inline LobeWindow lobe_window(float3 mirror, float alpha, __global const float *
   LobeWindow win;
   int rows = (h + block - 1) / block, cols = (w + block - 1) / block;
   /* the map point of the mirror, as env_pdf finds it */
-  float2 cs = env_rotation(rotation);
-  float3 m = (float3)(cs.x * mirror.x - cs.y * mirror.y, cs.y * mirror.x + cs.x * mirror.y,
-                      mirror.z);
-  float s = btf_mod((M_PI_F - btf_atan2(m.y, m.x)) / (2.0f * M_PI_F), 1.0f);
+  float3 m = env_map_vector(mirror, rotation);
+  float s = btf_mod(env_map_s(m), 1.0f);
   float z = clamp(m.z, -1.0f, 1.0f);
   float sin_theta = sqrt(fmax((1.0f - z) * (1.0f + z), 0.0f));
   float theta = btf_atan2(sin_theta, z);

@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cycles_scenes import relative_rmse
-from helpers import sphere_with_checked_mean, studiolights_dir
+from helpers import errors_on_and_off, sphere_with_checked_mean, studiolights_dir
 
 from btf_addon.core.codecs.analytic import GGXBTF, PrincipledBTF
 from btf_addon.core.formats.imageio import read_exr
@@ -114,11 +113,7 @@ def test_the_window_keeps_the_integral_and_cuts_the_noise(cl_context):
     assert env.lobe_window is not None
     renderer = sphere_with_checked_mean(cl_context, env, GGXBTF((0.9, 0.55, 0.2), 0.35))
     reference = renderer.render_sampled(4096, seed=11)[..., :3]
-    errors = {}
-    for window in (True, False):
-        renderer.lobe_window = window
-        images = [renderer.render_sampled(64, seed=s)[..., :3] for s in (1, 2, 3)]
-        errors[window] = np.mean([relative_rmse(image, reference) for image in images])
+    errors = errors_on_and_off(renderer, reference, "lobe_window")
     assert errors[True] < 0.7 * errors[False], errors
 
     dielectric = sphere_with_checked_mean(cl_context, env, PrincipledBTF())

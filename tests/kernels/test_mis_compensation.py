@@ -14,8 +14,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from cycles_scenes import relative_rmse
-from helpers import sphere_with_checked_mean
+from helpers import errors_on_and_off, sphere_with_checked_mean
 
 from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.sampling.envmap import LUMINANCE, Environment
@@ -91,9 +90,5 @@ def test_same_integral_less_noise(cl_context, btf):
 
     reference = renderer.render_sampled(4096, seed=11)[..., :3]
     renderer.sun_sampling = False  # compensation alone (the sun's own draws: test_sun_sampling)
-    errors = {}
-    for compensated in (True, False):
-        renderer.mis_compensation = compensated
-        images = [renderer.render_sampled(64, seed=s)[..., :3] for s in (1, 2, 3)]
-        errors[compensated] = np.mean([relative_rmse(image, reference) for image in images])
+    errors = errors_on_and_off(renderer, reference, "mis_compensation")
     assert errors[True] < 0.5 * errors[False], errors

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cycles_scenes import relative_rmse
-from helpers import sphere_with_checked_mean
+from helpers import errors_on_and_off, sphere_with_checked_mean
 
 from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.sampling.envmap import (
@@ -124,11 +123,7 @@ def test_sun_draws_keep_the_integral_and_cut_the_noise(cl_context, btf):
     renderer = sphere_with_checked_mean(cl_context, env, btf)
 
     reference = renderer.render_sampled(4096, seed=11)[..., :3]
-    errors = {}
-    for own_draws in (True, False):
-        renderer.sun_sampling = own_draws
-        images = [renderer.render_sampled(64, seed=s)[..., :3] for s in (1, 2, 3)]
-        errors[own_draws] = np.mean([relative_rmse(image, reference) for image in images])
+    errors = errors_on_and_off(renderer, reference, "sun_sampling")
     if isinstance(btf, GGXBTF):
         assert errors[True] < 0.8 * errors[False], errors
     else:

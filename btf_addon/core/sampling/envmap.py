@@ -229,6 +229,8 @@ class Environment:
         self._sin_rows = np.sin(np.pi * (np.arange(self.height) + 0.5) / self.height)
         # The viewport (main thread) and F12 (a render thread) may share one Environment.
         self._tables_lock = threading.Lock()
+        # the lobe window's rule (lobe_window), measured by sun_tables where the map has a sun
+        self._patchy_share = 0.0
         self._weight: np.ndarray | None = self._luminance_weight()
         total = self._weight.sum()
         # Far below this nothing is visible at all; also covers the all-zero map.
