@@ -164,3 +164,28 @@ def test_progress_follows_the_work_left_and_esc_stops(renderer):
     image = _render(renderer, THRESHOLD, progress=lambda f: f < 0.5)
     counts = renderer.sample_counts
     assert 0 < counts.max() < SAMPLES and np.all(np.isfinite(image))
+
+
+def test_previews_come_at_most_about_twice_a_pass_time(renderer, monkeypatch):
+    """Adaptive sampling ends passes at its checks, often a few ms apart (here the fixed split's
+    passes of FIXED_LAUNCH_SAMPLES end there too); the preview (a copy of the whole image into
+    Blender) comes after the first pass, then only once half PASS_SECONDS have gone by since
+    the last one: with a pass time of hours, one preview; with no time at all, one after every
+    pass but the last (as without adaptive sampling)."""
+    from btf_addon.render import launch
+
+    shown = []
+
+    def render_with_previews():
+        shown.clear()
+        renderer.adaptive_threshold = THRESHOLD
+        try:
+            renderer.render_sampled(SAMPLES, 3, max_bounces=BOUNCES, preview=shown.append)
+        finally:
+            renderer.adaptive_threshold = 0.0
+        return len(shown)
+
+    monkeypatch.setattr(launch, "PASS_SECONDS", 3600.0)
+    assert render_with_previews() == 1
+    monkeypatch.setattr(launch, "PASS_SECONDS", 1e-9)
+    assert render_with_previews() == SAMPLES // launch.FIXED_LAUNCH_SAMPLES - 1
