@@ -98,7 +98,15 @@ def render(engine, depsgraph) -> None:
             )
         for skipped, why in cl_context.skipped:  # the user's device, or a better one, cannot build
             engine.report({"WARNING"}, f"OpenCL device {skipped.label} skipped: {why}")
-        renderer = CLRenderer(exported, w, h, cl_context, features, film=settings.film())
+        renderer = CLRenderer(
+            exported,
+            w,
+            h,
+            cl_context,
+            features,
+            film=settings.film(),
+            importance_tables=settings.sampled and settings.btf_importance_sampling,
+        )
         for note in renderer.notes:
             engine.report({"WARNING"}, note)
     except OpenCLCompileError as exc:

@@ -125,7 +125,12 @@ class CLRenderer:
         cl_context: CLContext,
         features: SceneFeatures | None = None,
         film: PixelFilter | None = DEFAULT_FILM,
+        importance_tables: bool = False,
     ):
+        """``importance_tables``: pack the measured codecs' sampling tables now, for a Sampled
+        render to come (F12 in that mode: packing without them first, then again with them
+        when render_sampled asks, cost the demo's F12 15 ms; the direct kernel never reads
+        them, so its images are the same either way)."""
         import pyopencl as cl
 
         self.cl = cl
@@ -157,7 +162,7 @@ class CLRenderer:
         self.kernel = cl.Kernel(program, "render_direct")
         self.kernel_mis = cl.Kernel(program, "render_env_mis")
         self._upload_geometry()
-        self._upload_materials()
+        self._upload_materials(importance_tables)
         self._film: PixelFilter | None = None
         self.filter_table = None  # set_film's buffer
         self.set_film(film)

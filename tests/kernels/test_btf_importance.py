@@ -16,7 +16,7 @@ from btf_addon.core.codecs.analytic import GGXBTF, LambertianBTF
 from btf_addon.core.codecs.mlvq import MLVQBTF
 from btf_addon.core.codecs.packed import INT_SLOT, pack
 from btf_addon.core.sampling import btf_importance
-from btf_addon.core.sampling.envmap import Environment
+from btf_addon.core.sampling.envmap import Environment, VirtualLights
 from btf_addon.scene.primitives import uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
@@ -218,3 +218,34 @@ def test_sampled_render_mean_unchanged(cl_context, alu):
     renderer.importance_sampling = False
     cosine = renderer.render_sampled(256, seed=1)[..., :3]
     np.testing.assert_allclose(table.mean(axis=(0, 1)), cosine.mean(axis=(0, 1)), rtol=0.01)
+
+
+def test_tables_packed_up_front_are_not_packed_again(cl_context, alu):
+    """F12 in the Sampled mode makes its renderer with ``importance_tables``: the first
+    render_sampled then uploads nothing (the same buffers before and after; packing twice cost
+    the demo's F12 15 ms), and the direct kernel, which never reads the tables, draws the same
+    passes as from tables packed without them."""
+    from btf_addon.cl.renderer import CLRenderer
+
+    scene = Scene(
+        [uv_sphere(1.0, segments=24, rings=12)],
+        [Material(alu, uv_scale=2.0)],
+        Camera(look_at((0.0, -4.0, 1.0), (0, 0, 0))),
+        Environment(np.full((8, 16, 3), 0.5, np.float32)),
+    )
+    plain = CLRenderer(scene, 16, 12, cl_context, film=None)
+    with_tables = CLRenderer(scene, 16, 12, cl_context, film=None, importance_tables=True)
+    uploaded = [with_tables.ints, with_tables.floats, with_tables.material_offsets]
+    with_tables.render_sampled(4, seed=1)
+    now = [with_tables.ints, with_tables.floats, with_tables.material_offsets]
+    assert all(a is b for a, b in zip(now, uploaded, strict=True))
+    plain_tables = plain.ints
+    plain.render_sampled(4, seed=1)
+    assert plain.ints is not plain_tables  # without it the tables are packed on the way
+    light = VirtualLights(np.array([[0.3, -0.5, 0.8]]), np.ones((1, 3)), np.ones(1))
+    a, b = (
+        CLRenderer(scene, 16, 12, cl_context, film=None).render_direct(light),
+        with_tables.render_direct(light),
+    )
+    for name in ("combined", "depth", "normal", "uv"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
