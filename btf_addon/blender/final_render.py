@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from typing import NamedTuple
 
+import bpy
 import numpy as np
 
 from ..cl.context import OpenCLUnavailableError, create_context
@@ -219,7 +220,10 @@ def _render_view(engine, depsgraph, renderer, settings, region, transparent, vie
         set_pass(layer.passes["Combined"], region, combined[::-1])
         engine.update_result(result)
 
-    passes = render_frame(renderer, settings, lights, progress, show, transparent)
+    # Without a display (background Blender: farms, the command line) nothing shows a preview,
+    # and each is a copy of the image into Blender: none is made (Cycles' headless rule).
+    preview = None if bpy.app.background else show
+    passes = render_frame(renderer, settings, lights, progress, preview, transparent)
     top_first = {
         "Combined": passes.combined,  # Film › Transparent: alpha is the kernels' coverage
         "Depth": passes.depth[..., None],
