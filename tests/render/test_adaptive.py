@@ -48,6 +48,27 @@ def test_pixel_error_is_cycles_formula():
     np.testing.assert_allclose(error[0], [0.1 / (1e-4 + np.sqrt(0.75)), 0.6 / (1e-4 + 3.0)], 1e-5)
 
 
+def test_a_pixel_stops_below_the_threshold_itself_as_in_cycles_kernel():
+    """Cycles' kernel compares the error with the Noise Threshold unscaled (``error <
+    threshold``): errors of 0.9 and 1.1 × the threshold, each pixel apart from the others
+    (a 5 × 5 image, the noisy one in a corner so its 3 × 3 neighbours are known)."""
+    plan = AdaptiveSampling(0.01, 64)
+    h, w = 5, 5
+    mean = np.full((h, w, 3), 0.25, np.float32)  # intensity 0.75: n = sqrt(0.75)
+    half = mean.copy()
+    unit = np.sqrt(0.75) + 1e-4  # a difference of `unit` summed over RGB is an error of 1
+    half[..., 0] += 0.9 * 0.01 * unit  # every pixel: 0.9 × the threshold, converged
+    half[0, 0, 0] = mean[0, 0, 0] + 1.1 * 0.01 * unit  # this one: 1.1 ×, not converged
+    in_half, count = np.full((h, w), 8), np.full((h, w), 16)
+    error = pixel_error(mean, half)
+    assert error[0, 0] == pytest.approx(0.011, rel=1e-3)
+    assert error[4, 4] == pytest.approx(0.009, rel=1e-3)
+    after = plan.still_active(np.ones((h, w), bool), mean, half, in_half, count)
+    expected = np.zeros((h, w), bool)
+    expected[0:2, 0:2] = True  # the noisy pixel and its neighbours
+    np.testing.assert_array_equal(after, expected)
+
+
 def test_dilate_grows_by_one_pixel_every_way():
     mask = np.zeros((5, 6), bool)
     mask[0, 0] = mask[3, 3] = True
@@ -58,7 +79,7 @@ def test_dilate_grows_by_one_pixel_every_way():
 
 
 def test_an_unconverged_pixel_keeps_its_neighbours_and_stopped_pixels_stay_stopped():
-    plan = AdaptiveSampling(0.01, 64)  # converged: error < 0.05
+    plan = AdaptiveSampling(0.01, 64)  # converged: error < 0.01
     h, w = 5, 5
     mean = np.full((h, w, 3), 0.2, np.float32)
     half = mean.copy()
