@@ -39,7 +39,7 @@
 #include "btf_lights.h"
 #include "btf_sampling.h"
 #include "btf_filter.h"
-
+#include "btf_launch.h"
 
 /* cos and sin of the World's rotation; (1, 0) exactly for none, without the argument reduction
  * of PoCL's cos/sin (most Worlds are not rotated). */
@@ -182,7 +182,8 @@ __kernel void render_direct(const int width, const int height, const int row0,
                             __global float *depth,
                             __global float *normal_out, __global float *uv_out)
 {
-  int x = get_global_id(0), yr = get_global_id(1);
+  int x, yr;
+  launch_pixel(&x, &yr); /* spread over the band: include/btf_launch.h */
   int y = row0 + yr;
   if (x >= width || y >= height) {
     return;
@@ -421,7 +422,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                              __global float *half_sums, __global const uchar *active,
                              const int adaptive)
 {
-  int x = get_global_id(0), yr = get_global_id(1);
+  int x, yr;
+  launch_pixel(&x, &yr); /* spread over the band: include/btf_launch.h */
   int y = row0 + yr;
   if (x >= width || y >= height) {
     return;

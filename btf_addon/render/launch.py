@@ -17,8 +17,9 @@ measured split is not: which samples share a launch changes the float rounding o
 
 Adaptive sampling (render/adaptive.py): passes end at the sample counts where convergence is
 checked (``next_check``), the caller tells the plan after a check how many pixels of each row
-are still active (``set_active_rows``), and later passes launch only runs of rows that have
-one; ``done`` counts the work of the active pixels, so progress follows the work actually left.
+are still active (``set_active_rows``), and later passes launch only bands from a row that
+has one to the last that has one; ``done`` counts the work of the active pixels, so progress
+follows the work actually left.
 """
 
 from __future__ import annotations
@@ -141,9 +142,14 @@ class LaunchPlan:
         return row + int(ahead[0]) if len(ahead) else self.height
 
     def _active_run(self, row0: int, limit: int) -> int:
-        """How many rows from ``row0`` (active) on, at most ``limit``, have active pixels."""
-        idle = np.flatnonzero(self._active[row0 : row0 + limit] == 0)
-        return int(idle[0]) if len(idle) else min(limit, self.height - row0)
+        """How many rows from ``row0`` (active) on, at most ``limit``, up to the last with an
+        active pixel. Idle rows between active ones go along: their pixels return at once,
+        and a launch costs more than they do (every launch traces each active pixel's camera
+        ray and its sharp-lobe test again, and waits for the device): cutting a pass at every
+        idle row made the adaptive demo 253 launches for 1024 samples, 1.6 ms a sample
+        against 1.0 without adaptive sampling."""
+        active = np.flatnonzero(self._active[row0 : row0 + limit])
+        return int(active[-1]) + 1 if len(active) else 1
 
     def _rows_for(self, count: int) -> int:
         if self.cost is not None and not self.fixed:
