@@ -4,8 +4,8 @@ set again.
 pyopencl's ``kernel(queue, size, local, *args)`` sets every argument on every call. The final
 render's path tracer takes ~50 (the scene's buffers, the World's tables, the film) of which a
 launch changes four or five (its rows, its samples, the adaptive mask): with adaptive sampling
-a frame makes hundreds of short launches, and setting all of them cost 0.2-0.4 ms each
-(docs/accuracy.md, "Final render against Cycles").
+a frame makes a launch every 16 samples or more often, and pyopencl's call took 0.44 ms a
+launch where this takes 0.28 with the enqueue (the adaptive demo's F12, profiled).
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ class ArgumentKernel:
     def __call__(self, queue, global_size: Sequence[int], local_size: Sequence[int], *args):
         import pyopencl as cl
 
-        given = self._given
+        # Forgotten until every argument is set: a set_arg that raises leaves nothing to trust.
+        given, self._given = self._given, []
         for i, arg in enumerate(args):
             if i >= len(given) or given[i] is not arg:
                 self.kernel.set_arg(i, arg)

@@ -146,8 +146,8 @@ class LaunchPlan:
         active pixel. Idle rows between active ones go along: their pixels return at once,
         and a launch costs more than they do (every launch traces each active pixel's camera
         ray and its sharp-lobe test again, and waits for the device): cutting a pass at every
-        idle row made the adaptive demo 253 launches for 1024 samples, 1.6 ms a sample
-        against 1.0 without adaptive sampling."""
+        idle row made the adaptive demo 253 launches for 1024 samples, 67 this way (its F12
+        1.84 s -> 1.72 s)."""
         active = np.flatnonzero(self._active[row0 : row0 + limit])
         return int(active[-1]) + 1 if len(active) else 1
 
