@@ -352,12 +352,6 @@ inline float3 clamp_indirect(float3 light, float limit)
 /* The Sobol dimension of the film's 2D point: far beyond any path's own decisions. */
 #define FILM_DIMENSION 0xFFFFu
 
-/* Adaptive sampling's half buffer (render/adaptive.py): whether sample `index` is one of the
- * half whose mean is compared with the mean of all. Cycles' class A (Christensen et al.,
- * "Progressive Multi-Jittered Sample Sequences", §10.2.1): the parity of the odd bits, so each
- * aligned block of 4 is split 2 : 2 and both halves stay well stratified in every Sobol
- * dimension (odd indices alone would all lie in one half of the first dimension). Counted in
- * camera-ray groups where samples share a ray, so that the halves differ by their edges too. */
 /* A GGX lobe this sharp (alpha² below; GGX roughness ≈ 0.21 in Blender's convention α = r²)
  * takes a camera ray per sample whatever Samples per Camera Ray asks: its light comes smoothly
  * (a sun drawn on its own, a smooth sky through a narrow lobe), and what is left is its
@@ -391,6 +385,12 @@ inline bool sharp_lobe_at_centre(int x, int y, int width, int height,
   return ggx_lobe_probability(I, F) >= 0.9f && FTAB(F_ALPHA2) < SHARP_LOBE_ALPHA2;
 }
 
+/* Adaptive sampling's half buffer (render/adaptive.py): whether sample `index` is one of the
+ * half whose mean is compared with the mean of all. Cycles' class A (Christensen et al.,
+ * "Progressive Multi-Jittered Sample Sequences", §10.2.1): the parity of the odd bits, so each
+ * aligned block of 4 is split 2 : 2 and both halves stay well stratified in every Sobol
+ * dimension (odd indices alone would all lie in one half of the first dimension). Counted in
+ * camera-ray groups where samples share a ray, so that the halves differ by their edges too. */
 inline bool in_half(uint index, int camera_split, int filtered)
 {
   uint unit = filtered ? index / (uint)camera_split : index;

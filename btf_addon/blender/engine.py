@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bpy
 
+from ..cl import warm
 from . import final_render, viewport
 from .addon import ENGINE_ID
 
@@ -82,9 +83,11 @@ def register() -> None:
     bpy.utils.register_class(BTFRenderEngine)
     for panel in compatible_panels():
         panel.COMPAT_ENGINES.add(ENGINE_ID)
+    warm.start()  # pyopencl's import off the first F12's clock (cl/warm.py)
 
 
 def unregister() -> None:
     for panel in compatible_panels():
         panel.COMPAT_ENGINES.discard(ENGINE_ID)
     bpy.utils.unregister_class(BTFRenderEngine)
+    warm.wait(10.0)  # a disabled add-on leaves no thread of its own running
