@@ -7,6 +7,8 @@ adaptive sampling (Cycles'), clamping and denoising off; every other setting at 
 first; the F12 call alone is timed, from the operator's start to the EXR on disk), so each side
 pays its whole per-render cost: scene sync or export, BVH, upload, sampling, writing. Our kernels
 come from the disk cache, as on any render after the first (one untimed render warms it).
+Neither side's library load is timed: Cycles loads its own when Blender starts, ours imports
+pyopencl on a thread while the scene is built (btf_addon/cl/warm.py, started at registration).
 Renderers alternate at each sample count, so both meet the same machine load, and each point is
 the median of ``--repeats`` processes (3 by default): Cycles' start-up alone moved 0.8-1.5 s
 between single runs on the same machine.
