@@ -24,14 +24,19 @@ import json, math, sys
 import bpy
 
 zip_path, out = sys.argv[-2], sys.argv[-1]
-assert bpy.ops.extensions.package_install_files(
-    filepath=zip_path, repo="user_default", enable_on_install=True
-) == {"FINISHED"}
 site = bpy.utils.user_resource(
     "EXTENSIONS", path=f".local/lib/python{sys.version_info[0]}.{sys.version_info[1]}/site-packages"
 )
 already = "pyopencl" in sys.modules  # imported before the path change: the test is void
+# First on sys.path before the install: enabling the extension starts importing pyopencl on a
+# thread (cl/warm.py), which must find the wheels the install puts here, as in Blender. The
+# folder exists first so that Python's finder for it sees what is unpacked into it later.
+import os
+os.makedirs(site, exist_ok=True)
 sys.path.insert(0, site)
+assert bpy.ops.extensions.package_install_files(
+    filepath=zip_path, repo="user_default", enable_on_install=True
+) == {"FINISHED"}
 import importlib
 final_render = importlib.import_module(
     "bl_ext.user_default.btf_materials.btf_addon.blender.final_render"
