@@ -140,9 +140,10 @@ def _is_bundled(driver: str, bundled_version: str | None) -> bool:
 def _platforms():
     """[(platform, [devices])] of every OpenCL platform (pyopencl objects). Raises
     OpenCLUnavailableError with a readable reason when pyopencl or every platform is missing."""
-    from . import programs
+    from . import programs, warm
 
     programs.prepare_driver_caches()  # an unwritable cache must not look like "no device"
+    warm.wait_for_platforms()  # F12 may have started the query on a thread (cl/warm.py)
     try:
         import pyopencl as cl
     except ImportError as exc:
