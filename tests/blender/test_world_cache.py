@@ -78,3 +78,51 @@ def test_edited_packed_or_generated_images_are_read_from_blender(
     generated = bpy_module.data.images.new("G", 4, 4, float_buffer=True)
     world().image_pixels(generated)
     assert store.stats["disk_hits"] == 0 and store.stats["stored"] == 1
+
+
+def sky_world(bpy, path, strength: float, name: str = "W"):
+    """A World lit by the image at ``path`` (Background ← Environment Texture)."""
+    world = bpy.data.worlds.new(name)
+    world.use_nodes = True  # a no-op on Blender 5, where Worlds always use their nodes
+    nodes = world.node_tree.nodes
+    nodes["Background"].inputs["Strength"].default_value = strength
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = bpy.data.images.load(str(path), check_existing=False)  # as a new session
+    world.node_tree.links.new(texture.outputs["Color"], nodes["Background"].inputs["Color"])
+    return world
+
+
+def sunny_sky(path, seed: int):
+    pixels = np.random.default_rng(seed).gamma(0.6, 1.0, (32, 64, 3)).astype(np.float32)
+    pixels[5:7, 20:22] = 400.0  # a sun beside a patchy sky: the state holds its tables too
+    write_exr(path, pixels)
+    return path
+
+
+def test_the_built_environment_comes_back_from_the_disk(bpy_module, fresh_scene, store, tmp_path):
+    path = sunny_sky(tmp_path / "sky.exr", 1)
+    built, messages = world().environment_from_world(sky_world(bpy_module, path, 2.0))
+    assert messages == [] and built.sun_tables[1] is not None
+    stored = store.stats["stored"]  # the pixels and the environment
+    again, _ = world().environment_from_world(sky_world(bpy_module, path, 2.0, "W2"))
+    assert store.stats["stored"] == stored and store.stats["disk_hits"] == 1  # not even pixels
+    for name, array in built.state().items():
+        np.testing.assert_array_equal(again.state()[name], array, err_msg=name)
+    # another strength is another environment: built again (its pixels from the disk)
+    brighter, _ = world().environment_from_world(sky_world(bpy_module, path, 3.0, "W3"))
+    assert store.stats["stored"] == stored + 1 and store.stats["disk_hits"] == 2
+    assert brighter.mean_luminance == pytest.approx(1.5 * built.mean_luminance, rel=1e-6)
+
+
+def test_a_damaged_environment_file_is_built_again(bpy_module, fresh_scene, store, tmp_path):
+    path = sunny_sky(tmp_path / "sky.exr", 1)
+    built, _ = world().environment_from_world(sky_world(bpy_module, path, 1.0))
+    kept = {p: p.stat().st_size for p in store.folder().glob("*.npz")}
+    largest = max(kept, key=kept.get)  # the environment: the pixels and its tables
+    data = bytearray(largest.read_bytes())
+    data[len(data) // 2] ^= 0xFF  # one byte in the middle of an array
+    largest.write_bytes(bytes(data))
+    again, _ = world().environment_from_world(sky_world(bpy_module, path, 1.0, "W2"))
+    assert store.stats["rejected"] == 1
+    for name, array in built.state().items():
+        np.testing.assert_array_equal(again.state()[name], array, err_msg=name)

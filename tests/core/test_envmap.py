@@ -182,3 +182,42 @@ def test_rotation_turns_the_lighting(rng):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     # The world sees the map turned by −γ: what base shows at d, turned shows at R(−γ)·d.
     np.testing.assert_allclose(turned.lookup(d @ rz.T), base.lookup(d))
+
+
+def lamp_in_a_dim_sky(seed: int) -> np.ndarray:
+    """A float32 sky (as Blender's) whose every pixel is below the mean but a small lamp's: all
+    of the light above the mean is the lamp's, and sun_tables' rest is 0 (total − inside
+    rounds to a few ulps or to 0 by the seed: seed 1 gave NaN tables before the rest was
+    summed on its own)."""
+    sky = np.random.default_rng(seed).gamma(2.0, 0.5, (32, 64, 3)).astype(np.float32)
+    sky[5:7, 20:22] = 4000.0
+    return sky
+
+
+LAMPS = [f"lamp {seed}" for seed in range(4)]
+
+
+@pytest.mark.parametrize("name", ["zero", "sun", "nan_inf", "huge", "1x1", "odd", *LAMPS])
+def test_hard_maps_give_finite_final_render_tables(rng, name):
+    maps = {
+        "zero": np.zeros((16, 32, 3)),
+        "sun": synthetic_map(rng),
+        "nan_inf": np.where(rng.random((16, 32, 3)) < 0.1, np.nan, rng.random((16, 32, 3))),
+        "huge": np.full((8, 16, 3), 1e6),
+        "1x1": np.full((1, 1, 3), 2.0),
+        "odd": rng.random((7, 13, 3)),
+        **{lamp: lamp_in_a_dim_sky(seed) for seed, lamp in enumerate(LAMPS)},
+    }
+    with np.errstate(all="raise"):  # a 0/0 anywhere in the tables is an error here
+        env = Environment(maps[name])
+        tables, sun = env.sun_tables
+        window = env.lobe_window
+    for table in (*tables, *env.mis_tables):
+        assert np.all(np.isfinite(table))
+    np.testing.assert_allclose(tables.row_cdf[-1], 1.0, rtol=1e-6)
+    if sun is not None:
+        assert np.all(np.isfinite(sun.cdf)) and 0.0 < sun.share < 1.0
+    if window is not None:
+        assert np.all(np.isfinite(window.cdf))
+    if name in LAMPS:  # the lamp is all there is: drawn by the compensated tables alone
+        assert sun is None

@@ -16,7 +16,7 @@ import numpy as np
 from ...core.colour import srgb_decode
 from ...core.sampling.envmap import Environment
 from .. import compat
-from .world_cache import cached_pixels
+from .world_cache import cached_environment, cached_pixels
 
 BLACK = (0.0, 0.0, 0.0)
 
@@ -118,12 +118,17 @@ def environment_from_world(world) -> WorldEnvironment:
             rotation = _mapping_rotation_z(mapping, messages)
         elif mapping.bl_idname != "ShaderNodeTexCoord":
             messages.append(f"{mapping.bl_label!r} before the Environment Texture is ignored")
+    image = texture.image
     try:
-        pixels = image_pixels(texture.image)
-    except (ValueError, RuntimeError) as exc:
+        env = cached_environment(
+            image,
+            strength,
+            rotation,
+            lambda: Environment(image_pixels(image), strength=strength, rotation_z_rad=rotation),
+        )
+    except (ValueError, RuntimeError) as exc:  # the image's pixels: missing or unreadable
         messages.append(f"environment image unusable ({exc}): using the Background colour")
         return WorldEnvironment(fallback, messages)
-    env = Environment(pixels, strength=strength, rotation_z_rad=rotation)
     if env.nonfinite_count:
         messages.append(f"{env.nonfinite_count} NaN/Inf pixels in {texture.image.name!r} set to 0")
     return WorldEnvironment(env, messages)

@@ -1,12 +1,17 @@
-"""The World image's pixels kept on disk between sessions. Reading them from Blender decodes
-the file first (forest.exr, 1024 × 512: 13-20 ms) and then copies them out (2-26 ms), in
-every new Blender process: a tenth of a small scene's F12 (a render farm's every frame, an F12
-after a material tweak).
+"""The World image's pixels kept on disk between sessions, and the environment made of them.
+Reading them from Blender decodes the file first (forest.exr, 1024 × 512: 13-20 ms) and then
+copies them out (2-26 ms), in every new Blender process: a tenth of a small scene's F12 (a
+render farm's every frame, an F12 after a material tweak). Cleaning them, weighing them and
+building the final render's sampling tables from them (core/sampling/envmap.py) cost another
+~25 ms of such an F12 on forest.exr, so the built environment is kept too
+(``cached_environment``: ``Environment.state`` under the image's key and the Background's
+strength, read back by ``Environment.from_state``; ``Environment.valid_state`` checks it).
 
 Only a clean image read from a file is kept: its key is the file (real path, size,
 modification time in nanoseconds), the settings that change what Blender decodes (colour
 space, alpha mode, half precision), Blender's version and the source text of world.py (the
-reading code). Anything else is read from Blender each time: a packed, generated, tiled or
+reading code); an environment's key adds the strength and the source text of envmap.py (the
+code that builds it). Anything else is read from Blender each time: a packed, generated, tiled or
 movie image, one edited in Blender and not saved (``is_dirty``), a file that cannot be
 stat'ed (its error then comes from Blender, as before). The file is not opened to key it:
 a file rewritten within the same nanosecond and size would be missed (no editor does that).
@@ -27,6 +32,8 @@ from collections.abc import Callable
 import numpy as np
 
 from ...core.npz_store import NpzStore
+from ...core.sampling import envmap
+from ...core.sampling.envmap import Environment
 from ...core.sampling.table_cache import table_key
 
 STORE = NpzStore("World image cache", "BTF_WORLD_CACHE", "world", 2**30)
@@ -73,3 +80,23 @@ def cached_pixels(image, read: Callable[[], np.ndarray]) -> np.ndarray:
     rgb = read()
     STORE.store(key, {"rgb": rgb})
     return rgb
+
+
+def cached_environment(
+    image, strength: float, rotation: float, build: Callable[[], Environment]
+) -> Environment:
+    """``build()`` (world.py: the Environment of ``image``'s pixels at ``strength``, turned by
+    ``rotation``), from the disk when this image was built at this strength before. On a first
+    build the final render's tables are built here too (``Environment.state``), so that the
+    next session finds them: ~10 ms once per map and strength."""
+    identity = image_identity(image)
+    if identity is None:
+        return build()
+    params = {**identity, "strength": float(strength), "kept": "environment"}
+    key = table_key([], params, [sys.modules[build.__module__], envmap])
+    state = STORE.load(key, Environment.valid_state)
+    if state is not None:
+        return Environment.from_state(state, rotation)
+    environment = build()
+    STORE.store(key, environment.state())
+    return environment
