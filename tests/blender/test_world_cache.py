@@ -126,3 +126,18 @@ def test_a_damaged_environment_file_is_built_again(bpy_module, fresh_scene, stor
     assert store.stats["rejected"] == 1
     for name, array in built.state().items():
         np.testing.assert_array_equal(again.state()[name], array, err_msg=name)
+
+
+def test_an_environment_too_large_for_the_folder_is_not_kept(
+    bpy_module, fresh_scene, store, tmp_path, monkeypatch
+):
+    path = sunny_sky(tmp_path / "sky.exr", 1)
+    # 32 × 64 pixels: 24 kB of radiance, ~40 kB of state; a quarter of 100 kB holds the
+    # pixels alone
+    monkeypatch.setattr(store, "cap_bytes", 100_000)
+    built, _ = world().environment_from_world(sky_world(bpy_module, path, 1.0))
+    assert store.stats["stored"] == 1  # the pixels only
+    again, _ = world().environment_from_world(sky_world(bpy_module, path, 1.0, "W2"))
+    assert store.stats["disk_hits"] == 1 and store.stats["stored"] == 1  # pixels from disk
+    for name, array in built.state().items():
+        np.testing.assert_array_equal(again.state()[name], array, err_msg=name)

@@ -11,9 +11,9 @@ Only a clean image read from a file is kept: its key is the file (real path, siz
 modification time in nanoseconds), the settings that change what Blender decodes (colour
 space, alpha mode, half precision), Blender's version and the source text of world.py (the
 reading code); an environment's key adds the strength and the source text of envmap.py (the
-code that builds it). Anything else is read from Blender each time: a packed, generated, tiled or
-movie image, one edited in Blender and not saved (``is_dirty``), a file that cannot be
-stat'ed (its error then comes from Blender, as before). The file is not opened to key it:
+code that builds it). Anything else is read from Blender each time: a packed, generated,
+tiled or movie image, one edited in Blender and not saved (``is_dirty``), a file that cannot
+be stat'ed (its error then comes from Blender, as before). The file is not opened to key it:
 a file rewritten within the same nanosecond and size would be missed (no editor does that).
 
 Files: core/npz_store.py (the zip's CRC-32 checked on every read; a damaged file is read
@@ -98,5 +98,9 @@ def cached_environment(
     if state is not None:
         return Environment.from_state(state, rotation)
     environment = build()
-    STORE.store(key, environment.state())
+    state = environment.state()
+    # A map whose environment would take over a quarter of the folder (its state is ~1.7 × its
+    # pixels' bytes: maps beyond ~6000 × 3000) is built each session, not pushing the rest out.
+    if sum(array.nbytes for array in state.values()) <= STORE.cap_bytes // 4:
+        STORE.store(key, state)
     return environment
