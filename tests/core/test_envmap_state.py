@@ -85,6 +85,9 @@ def test_the_maps_cover_every_kind_of_state(rng):
     sun = Environment(sky_with_sun(rng)).state()
     smooth = Environment(MAPS["smooth"](rng)).state()
     assert "sun_pixels" in sun and "sun_pixels" not in smooth
+    # a float32 map (Blender's) keeps its RGBA texture, a float64 one its radiance as it is
+    assert "rgba" in sun and "radiance" not in sun
+    assert "radiance" in smooth and smooth["radiance"].dtype == np.float64
     assert "window_block" in Environment(bundled("forest")).state()  # skips without bpy
     assert "window_block" not in Environment(bundled("city")).state()
 
@@ -109,7 +112,9 @@ def damaged(state: dict, how: str) -> dict:
     elif how == "shape":
         state["tables_row_cdf"] = state["tables_row_cdf"][:-1]
     elif how == "radiance shape":
-        state["radiance"] = state["radiance"][:, :-1]
+        state["rgba"] = state["rgba"][:, :-1]
+    elif how == "rgb, not rgba":
+        state["rgba"] = state["rgba"][..., :3]
     elif how == "sun shape":
         state["sun_cdf"] = state["sun_cdf"][:-1]
     elif how == "window shape":
@@ -117,7 +122,7 @@ def damaged(state: dict, how: str) -> dict:
     elif how == "window block":
         state["window_block"] = state["window_block"] * 2
     elif how == "sun outside the map":
-        state["sun_pixels"][-1] = state["radiance"].shape[0] * state["radiance"].shape[1]
+        state["sun_pixels"][-1] = state["rgba"].shape[0] * state["rgba"].shape[1]
     elif how == "not finite":
         state["tables_col_cdf"].flat[7] = np.nan
     elif how == "scalars":
@@ -133,6 +138,7 @@ def damaged(state: dict, how: str) -> dict:
         "dtype",
         "shape",
         "radiance shape",
+        "rgb, not rgba",
         "sun shape",
         "window shape",
         "window block",

@@ -206,12 +206,17 @@ class Environment:
         if strength != 1.0:
             radiance *= float(strength)
         self.radiance = radiance
+        self._rgba: np.ndarray | None = None  # rgba32's array, where from_state gave it
         self.height, self.width = self.radiance.shape[:2]
         self.rotation_z_rad = float(rotation_z_rad)
         self._build_distribution()
 
     def rgba32(self) -> np.ndarray:
-        """(H, W, 4) float32 radiance with alpha 1: the texture both GPU back ends upload."""
+        """(H, W, 4) float32 radiance with alpha 1: the texture both GPU back ends upload. An
+        Environment read back by ``from_state`` holds it already (its radiance is a view of it)
+        and returns that array: callers upload it, never write to it."""
+        if self._rgba is not None:
+            return self._rgba
         rgba = np.empty((self.height, self.width, 4), dtype=np.float32)
         rgba[..., :3] = self.radiance
         rgba[..., 3] = 1.0
@@ -244,7 +249,10 @@ class Environment:
         """L · sin θ per pixel, float64. The luminance in the map's own precision: a float32 map
         times float64 weights made numpy convert the whole map to float64 first (6–32 ms per
         F12 on forest.exr, mostly fresh pages), float32 weights take 3 ms."""
-        luminance = self.radiance @ LUMINANCE.astype(self.radiance.dtype)  # ≥ 0: cleaned
+        # contiguous: from_state's radiance is a view into the RGBA texture, and a strided
+        # product may round differently; the tables must not depend on where the map came from
+        radiance = np.ascontiguousarray(self.radiance)
+        luminance = radiance @ LUMINANCE.astype(radiance.dtype)  # ≥ 0: cleaned
         weight = luminance.astype(np.float64, copy=False)
         weight *= self._sin_rows[:, None]
         return weight
@@ -361,15 +369,21 @@ class Environment:
     # --- kept on disk between sessions ------------------------------------------------------
     def state(self) -> dict[str, np.ndarray]:
         """The map as the final render's Sampled mode uses it, as arrays: the cleaned and scaled
-        radiance, the numbers measured from it, the sun's tables and the lobe window (built now
-        where they are not yet). ``from_state`` makes the same Environment from them without
-        computing anything of the map (blender/export/world_cache.py keeps them on disk: on
-        forest.exr they were ~25 ms of a fresh Blender's F12)."""
+        radiance (a float32 map's as the RGBA texture, ``rgba32``, which F12 uploads: that
+        texture is then not built again), the numbers measured from it, the sun's tables and
+        the lobe window (built now where they are not yet). ``from_state`` makes the same
+        Environment from them without computing anything of the map
+        (blender/export/world_cache.py keeps them on disk: on forest.exr they were ~25 ms of a
+        fresh Blender's F12)."""
         tables, sun = self.sun_tables
         window = self.lobe_window
         measured = (self.mean_luminance, self.is_black, self._patchy_share)
         counts = (self.nonfinite_count, self.negative_count)
-        out = {"radiance": self.radiance, "scalars": np.array([*measured, *counts], np.float64)}
+        out = {"scalars": np.array([*measured, *counts], np.float64)}
+        if self.radiance.dtype == np.float32:
+            out["rgba"] = self.rgba32()
+        else:  # float64 (a map made in numpy): kept as it is, not rounded to the texture's
+            out["radiance"] = self.radiance
         out.update({f"tables_{name}": table for name, table in tables._asdict().items()})
         if sun is not None:
             out.update(sun_pixels=sun.pixels, sun_cdf=sun.cdf, sun_probability=sun.probability)
@@ -384,7 +398,8 @@ class Environment:
         """The Environment whose ``state()`` this is (checked by ``valid_state`` first), turned
         by ``rotation_z_rad`` (the tables are in the image's own coordinates)."""
         env = cls.__new__(cls)
-        env.radiance = state["radiance"]
+        env._rgba = state.get("rgba")
+        env.radiance = env._rgba[..., :3] if env._rgba is not None else state["radiance"]
         env.height, env.width = env.radiance.shape[:2]
         env.rotation_z_rad = float(rotation_z_rad)
         mean, black, patchy, nonfinite, negative = (float(x) for x in state["scalars"])
@@ -413,13 +428,15 @@ class Environment:
         """Whether arrays read back are a ``state()`` this code made: every array there with its
         dtype and a shape that fits the radiance's, the numbers finite (a damaged or foreign
         file is then built again, never used)."""
-        radiance = state.get("radiance")
-        if radiance is None or radiance.ndim != 3 or radiance.shape[2] != 3:
+        kept = "rgba" if "rgba" in state else "radiance"
+        radiance = state.get(kept)
+        if radiance is None or radiance.ndim != 3 or radiance.shape[2] != 4 - (kept != "rgba"):
             return False
         h, w = radiance.shape[:2]
         f32, i32 = np.dtype(np.float32), np.dtype(np.int32)
+        pixels = (f32, (h, w, 4)) if kept == "rgba" else (np.dtype(np.float64), (h, w, 3))
         expected = {
-            "radiance": (radiance.dtype, (h, w, 3)),
+            kept: pixels,
             "scalars": (np.dtype(np.float64), (5,)),
             "tables_row_pdf": (f32, (h,)),
             "tables_row_cdf": (f32, (h + 1,)),
@@ -435,7 +452,7 @@ class Environment:
             rows, cols = -(-h // block), -(-w // block)
             expected.update(window_block=(np.dtype(np.int64), ()), window_row_pdf=(f32, (rows,)))
             expected["window_cdf"] = (f32, (rows, cols + 1))
-        if set(state) != set(expected) or radiance.dtype not in (f32, np.float64):
+        if set(state) != set(expected):
             return False
         for name, (dtype, shape) in expected.items():
             array = state[name]
