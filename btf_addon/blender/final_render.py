@@ -24,7 +24,7 @@ import numpy as np
 from ..cl import warm
 from ..cl.context import OpenCLUnavailableError, create_context
 from ..cl.frame import render_frame
-from ..cl.programs import OpenCLCompileError, is_cached, prepare_driver_caches
+from ..cl.programs import OpenCLCompileError, is_cached
 from ..cl.renderer import KERNELS, CLRenderer, program_defines
 from ..core.errors import BTFError
 from ..render.lighting import frame_lights
@@ -70,7 +70,6 @@ def render_region(render, w: int, h: int) -> Region:
 
 def render(engine, depsgraph) -> None:
     global last_device
-    prepare_driver_caches()  # before the drivers load, on the thread this starts:
     warm.query_platforms()  # OpenCL's platforms open while the scene exports (cl/warm.py)
     scene = depsgraph.scene
     settings = render_settings(scene)  # with the film filter of scene.cycles

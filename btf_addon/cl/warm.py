@@ -107,12 +107,13 @@ def _open_platforms() -> None:
 
 
 def query_platforms() -> None:
-    """Start the OpenCL platform query on a thread, once per process (F12's first call).
-    The caller has pointed the drivers' caches first (programs.prepare_driver_caches): the
-    drivers read them as they load."""
+    """Start the OpenCL platform query on a thread, once per process (F12's first call)."""
     global _platforms_thread
     if _platforms_thread is not None:
         return
+    from .programs import prepare_driver_caches
+
+    prepare_driver_caches()  # here, before the thread: the drivers read them as they load
     _platforms_thread = threading.Thread(target=_open_platforms, name="btf-opencl-platforms")
     _platforms_thread.start()
 

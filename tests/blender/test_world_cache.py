@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 import pytest
-from blender_helpers import extension_submodule
+from blender_helpers import extension_submodule, with_nodes
 
 from btf_addon.core.formats.imageio import write_exr
 
@@ -82,8 +82,7 @@ def test_edited_packed_or_generated_images_are_read_from_blender(
 
 def sky_world(bpy, path, strength: float, name: str = "W"):
     """A World lit by the image at ``path`` (Background ← Environment Texture)."""
-    world = bpy.data.worlds.new(name)
-    world.use_nodes = True  # a no-op on Blender 5, where Worlds always use their nodes
+    world = with_nodes(bpy.data.worlds.new(name))
     nodes = world.node_tree.nodes
     nodes["Background"].inputs["Strength"].default_value = strength
     texture = nodes.new("ShaderNodeTexEnvironment")
