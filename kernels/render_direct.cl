@@ -349,6 +349,8 @@ inline float3 clamp_indirect(float3 light, float limit)
   return limit > 0.0f && peak > limit ? light * (limit / peak) : light;
 }
 
+#include "btf_path.h"
+
 /* The Sobol dimension of the film's 2D point: far beyond any path's own decisions. */
 #define FILM_DIMENSION 0xFFFFu
 
@@ -467,7 +469,6 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   if (!filtered) {
     sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material, material_params, eps);
   }
-  float rotation = env_params.x;
   int split = camera_split; /* this pixel's: 1 under a sharp lobe (SHARP_LOBE_ALPHA2) */
   if (filtered && split > 1 &&
       sharp_lobe_at_centre(x, y, width, height, world_from_clip, tri_count, bounds, links,
@@ -475,6 +476,14 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
                            material_params)) {
     split = 1;
   }
+  PathScene ps = {bounds, links, corners, tri_material,       /* the scene */
+                  ints, floats, material_offsets, material_params, eps,
+                  env, env_w, env_h, env_params,                  /* the World */
+                  scene_lights, scene_light_count,                /* Blender's lights */
+                  row_cdf, col_cdf, row_pdf, col_pdf,             /* the World's tables */
+                  sun_cdf, sun_pixels, sun_probability, sun_count, sun_share,
+                  window_row_pdf, window_cdf, window_block,
+                  max_bounces, indirect_limit};                   /* the path's limits */
   uint pixel_seed = pcg_hash((uint)(y * width + x) ^ pcg_hash(seed));
   float3 sum = (float3)(0.0f);
   float3 sky = (float3)(0.0f); /* the World seen by the current camera ray, where it misses */
@@ -512,164 +521,8 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
       }
       continue;
     }
-    SurfacePoint cur = sp;
     hits++;
-    float3 throughput = (float3)(1.0f);
-    float3 indirect = (float3)(0.0f); /* light after the first bounce, clamped at the end */
-    for (int bounce = 0; cur.wo.z > 0.0f; bounce++) {
-      float3 *light = bounce == 0 ? &sum : &indirect;
-      __global const float *I = ints + material_offsets[2 * cur.material];
-      __global const float *F = floats + material_offsets[2 * cur.material + 1];
-      float exposure = cur.exposure;
-      int pixel;
-      int table = bsdf_table(I, cur.wo); /* the BTF's sampling table for this view, if any */
-      /* The map's sun (envmap.py Environment.sun_tables; sun_count > 0) is drawn on its own
-       * where a small bright source does most harm drawn from the whole table: at the camera's
-       * vertex on a glossy lobe, where each rare find of the sun is a bright sample in its
-       * highlight (1b below). Elsewhere the first draw picks the sun or the rest of the map by
-       * the sun's share of the compensated weight: the two tables then make the compensated
-       * table (mis_tables) exactly, at one draw's cost. */
-      bool split = sun_count > 0 && bounce == 0 &&
-                   (table > 0 || ggx_lobe_probability(I, F) > 0.0f);
-      float share = sun_count > 0 && !split ? sun_share : 0.0f;
-      /* 1. Next-event estimation: a direction from the environment's distribution. */
-#if !HAS_ENVIRONMENT /* black: it adds 0; its random numbers are still drawn (same image) */
-      (void)next_2d(&smp);
-#else
-      /* The lobe window (include/btf_env_window.h; 1c. below): at a split vertex whose light
-       * is mostly a GGX lobe's (the GGX codec, a metallic Principled), where the map has one,
-       * the table drawn beside the sun restricted to the lobe's neighbourhood. */
-      LobeWindow win;
-      win.mass = 0.0f;
-      if (split && window_block > 0 && table == 0 && ggx_lobe_probability(I, F) >= 0.9f) {
-        float3 mirror = 2.0f * cur.wo.z * cur.n -
-                        (cur.wo.x * cur.t + cur.wo.y * cur.b + cur.wo.z * cur.n);
-        win = lobe_window(mirror, sqrt(FTAB(F_ALPHA2)), window_row_pdf, window_cdf,
-                          window_block, env_w, env_h, rotation);
-      }
-      {
-        float2 u = next_2d(&smp);
-        float sin_t;
-        /* (u.x − 0) / (1 − 0) is u.x: a map without a sun draws exactly as before */
-        float3 dir = u.x < share ? sun_draw((float2)(u.x / share, u.y), sun_cdf, sun_pixels,
-                                            sun_count, env_w, env_h, rotation, &pixel, &sin_t)
-                                 : table_draw((float2)((u.x - share) / (1.0f - share), u.y),
-                                              row_cdf, col_cdf, env_w, env_h, rotation, &pixel,
-                                              &sin_t);
-        /* the density this draw was made with, from its own pixel: no round trip through
-         * env_pdf's atan2 and acos (the same value up to rounding at pixel edges) */
-        float pdf_light = next_event_density(
-            table_density(row_pdf, col_pdf, env_w, env_h, pixel, sin_t), sun_probability, env_w,
-            env_h, pixel, sin_t, share);
-        float pdf_sun =
-            split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
-        float3 wi = to_frame(&cur, dir);
-        float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
-        bool visible = wi.z > 0.0f && pdf_light > 0.0f;
-#if HAS_SHADOWS
-        visible = visible && unoccluded(cur.start, dir, eps, INFINITY, bounds, links, corners);
-#endif
-        if (visible) {
-          float3 value = btf_mapped(I, F, &cur, wi);
-          float pdf_window = lobe_window_density(&win, window_block, env_w, env_h, pixel,
-                                                 pdf_light);
-          float weight = power_weight(pdf_light, pdf_bsdf, pdf_sun, pdf_window);
-          *light += throughput * exposure * value * vload3(0, env + 4 * pixel) *
-                    env_params.y * (weight / pdf_light);
-        }
-      }
-      /* 1b. The sun on its own: a smooth term of the highlight instead of rare bright draws. */
-      if (split) {
-        int sun;
-        float sin_t;
-        float3 dir = sun_draw(next_2d(&smp), sun_cdf, sun_pixels, sun_count, env_w, env_h,
-                              rotation, &sun, &sin_t);
-        float pdf_sun = pixel_density(sun_probability[sun], env_w, env_h, sin_t);
-        float3 wi = to_frame(&cur, dir);
-        bool visible = wi.z > 0.0f && pdf_sun > 0.0f;
-#if HAS_SHADOWS
-        visible = visible && unoccluded(cur.start, dir, eps, INFINITY, bounds, links, corners);
-#endif
-        if (visible) {
-          float pdf_light = table_density(row_pdf, col_pdf, env_w, env_h, sun, sin_t);
-          float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
-          /* the window draws from the table beside the sun: 0 on the sun's pixels */
-          float weight = power_weight(pdf_sun, pdf_light, pdf_bsdf, 0.0f);
-          *light += throughput * exposure * btf_mapped(I, F, &cur, wi) *
-                    vload3(0, env + 4 * sun) * env_params.y * (weight / pdf_sun);
-        }
-      }
-      /* 1c. The lobe window: the map's light where a narrow lobe reflects it. */
-      if (win.mass > 0.0f) {
-        int wp;
-        float sin_t;
-        float3 dir = lobe_window_draw(&win, next_2d(&smp), window_cdf, row_pdf, col_cdf,
-                                      window_block, env_w, env_h, rotation, &wp, &sin_t);
-        float pdf_light = table_density(row_pdf, col_pdf, env_w, env_h, wp, sin_t);
-        float pdf_window = pdf_light / win.mass;
-        float3 wi = to_frame(&cur, dir);
-        bool visible = wi.z > 0.0f && pdf_window > 0.0f;
-#if HAS_SHADOWS
-        visible = visible && unoccluded(cur.start, dir, eps, INFINITY, bounds, links, corners);
-#endif
-        if (visible) {
-          /* a pixel of the table beside the sun is none of the sun's: its density there is 0 */
-          float pdf_bsdf = bsdf_pdf_at(I, F, table, wi, cur.wo);
-          float weight = power_weight(pdf_window, pdf_light, pdf_bsdf, 0.0f);
-          *light += throughput * exposure * btf_mapped(I, F, &cur, wi) *
-                    vload3(0, env + 4 * wp) * env_params.y * (weight / pdf_window);
-        }
-      }
-#endif
-      *light += throughput * exposure * blender_lights(&cur, I, F, scene_lights,
-                                                        scene_light_count, eps, bounds, links,
-                                                        corners, &smp);
-      /* 2. A direction from the BTF's sampling (include/btf_sampling.h): it either reaches the
-       * World (MIS-weighted against the environment sample above) or, within the bounce
-       * limit, continues the path. */
-      float2 uc = next_2d(&smp);
-      float pdf_bsdf;
-      float3 lo = bsdf_sample_at(I, F, table, cur.wo, rand01(&smp.rng), uc, &pdf_bsdf);
-      if (!(pdf_bsdf > 0.0f) || lo.z <= 0.0f) {
-        break;
-      }
-      float3 dir = lo.x * cur.t + lo.y * cur.b + lo.z * cur.n;
-      float3 value = btf_mapped(I, F, &cur, lo);
-      float3 step = throughput * exposure * value / pdf_bsdf;
-      float th = 0.0f, uh = 0.0f, vh = 0.0f;
-      int hit = -1;
-#if HAS_SHADOWS /* surfaces that can occlude each other can also reflect each other */
-      hit = trace(cur.start, dir, eps, INFINITY, bounds, links, corners, false, &th, &uh, &vh);
-#endif
-      if (hit < 0) {
-#if HAS_ENVIRONMENT
-        float sin_t;
-        float map = env_pdf(row_pdf, col_pdf, env_w, env_h, rotation, dir, &pixel, &sin_t);
-        float pdf_light =
-            next_event_density(map, sun_probability, env_w, env_h, pixel, sin_t, share);
-        float pdf_sun =
-            split ? pixel_density(sun_probability[pixel], env_w, env_h, sin_t) : 0.0f;
-        float pdf_window = lobe_window_density(&win, window_block, env_w, env_h, pixel, map);
-        float weight = power_weight(pdf_bsdf, pdf_light, pdf_sun, pdf_window);
-        *light += step * vload3(0, env + 4 * pixel) * env_params.y * weight;
-#endif
-        break;
-      }
-      if (bounce >= max_bounces) {
-        break; /* the World is blocked and the path may not go further */
-      }
-      cur = surface_point(cur.start, dir, th, uh, vh, hit, corners, tri_material, material_params,
-                          eps);
-      throughput = step;
-      if (bounce >= 2) { /* Russian roulette keeps long paths unbiased and cheap */
-        float keep = fmin(fmax(throughput.x, fmax(throughput.y, throughput.z)), 0.95f);
-        if (rand01(&smp.rng) >= keep) {
-          break;
-        }
-        throughput /= keep;
-      }
-    }
-    sum += clamp_indirect(indirect, indirect_limit);
+    path_light(&ps, sp, &smp, &sum);
     if (halved) {
       half_sum += sum - before;
     }
@@ -679,4 +532,149 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   if (adaptive) {
     vstore4((float4)(half_sum, (float)half_count), px, half_sums);
   }
+}
+#include "btf_bake.h"
+
+/* --- The light bake (btf_addon/cl/bake.py; docs/accuracy.md "The light bake") ---------------
+ * Per bake point and view bin: F12's own paths (path_light) from points of the bake point's
+ * footprint (its neighbourhood on the surface, btf_addon/scene/bake_points.py) towards the
+ * bin's direction, and beside them the material's response to one light along the normal at
+ * the same points. Their ratio is the light per unit of that response: playback multiplies it
+ * by the response at the pixel's own texel, decoded live, so the bake carries the light
+ * (centimetres coarse) and the live decode the material's detail (0.1 mm). Sums are written
+ * (xyz; w: the samples counted), the host adds launches. */
+__kernel void bake_light(const int point0, const int point_end, const int bin_count,
+                         const int footprint, __global const int *foot_tri,
+                         __global const float *foot_bary, __global const float *bin_dirs,
+                         const int tri_count, __global const float *bounds,
+                         __global const int *links, __global const float *corners,
+                         __global const int *tri_material, __global const float *ints,
+                         __global const float *floats, __global const int *material_offsets,
+                         __global const float *material_params, const float eps,
+                         __global const float *env, const int env_w, const int env_h,
+                         const float2 env_params, __global const float *scene_lights,
+                         const int scene_light_count, __global const float *row_cdf,
+                         __global const float *col_cdf, __global const float *row_pdf,
+                         __global const float *col_pdf, __global const float *sun_cdf,
+                         __global const int *sun_pixels, __global const float *sun_probability,
+                         const int sun_count, const float sun_share,
+                         __global const float *window_row_pdf, __global const float *window_cdf,
+                         const int window_block, const int first_sample, const int samples,
+                         const uint seed, const int max_bounces, const float indirect_limit,
+                         __global float *radiance, __global float *response)
+{
+  int local_point = get_global_id(0), bin = get_global_id(1);
+  int p = point0 + local_point;
+  if (p >= point_end || bin >= bin_count) { /* points [point0, point_end) in this launch */
+    return;
+  }
+  PathScene ps = {bounds, links, corners, tri_material,       /* the scene */
+                  ints, floats, material_offsets, material_params, eps,
+                  env, env_w, env_h, env_params,                  /* the World */
+                  scene_lights, scene_light_count,                /* Blender's lights */
+                  row_cdf, col_cdf, row_pdf, col_pdf,             /* the World's tables */
+                  sun_cdf, sun_pixels, sun_probability, sun_count, sun_share,
+                  window_row_pdf, window_cdf, window_block,
+                  max_bounces, indirect_limit};                   /* the path's limits */
+  float3 wo = vload3(0, bin_dirs + 4 * bin);
+  uint point_seed = pcg_hash((uint)(p * bin_count + bin) ^ pcg_hash(seed));
+  float3 light = (float3)(0.0f), unit = (float3)(0.0f);
+  int counted = 0;
+  for (int si = 0; si < samples; si++) {
+    uint index = (uint)(first_sample + si);
+    /* The footprint position by a hash of the index, not index mod F: the Sobol points of
+     * indices ≡ k mod 2^m share their leading bits, so a fixed stride would light each
+     * position from one stratum of the sky only. */
+    int pick = p * footprint + (int)(pcg_hash(index ^ point_seed ^ 0x68E31DA4u) % (uint)footprint);
+    int tri = foot_tri[pick];
+    if (tri < 0 || tri >= tri_count) {
+      continue;
+    }
+    float2 bary = vload2(pick, foot_bary);
+    __global const float *c = corners + 36 * tri;
+    float w0 = 1.0f - bary.x - bary.y;
+    float3 pos = w0 * vload3(0, c) + bary.x * vload3(0, c + 12) + bary.y * vload3(0, c + 24);
+    float3 n = w0 * vload3(0, c + 3) + bary.x * vload3(0, c + 15) + bary.y * vload3(0, c + 27);
+    if (!(length(n) > 1e-12f)) { /* opposite corner normals: the face's own */
+      n = cross(vload3(0, c + 12) - vload3(0, c), vload3(0, c + 24) - vload3(0, c));
+    }
+    n = normalize(n);
+    /* A viewer on the normal's side: the frame surface_point builds faces it. */
+    SurfacePoint sp = surface_point(pos + n, -n, 1.0f, bary.x, bary.y, tri, corners,
+                                    tri_material, material_params, eps);
+    sp.wo = wo;
+    Sampler smp = {point_seed, index, 0u, pcg_hash(point_seed + index)};
+    path_light(&ps, sp, &smp, &light);
+    __global const float *I = ints + material_offsets[2 * sp.material];
+    __global const float *F = floats + material_offsets[2 * sp.material + 1];
+    unit += bake_response(I, F, &sp);
+    counted++;
+  }
+  int out = local_point * bin_count + bin;
+  vstore4((float4)(light, (float)counted), out, radiance);
+  vstore4((float4)(unit, (float)counted), out, response);
+}
+
+
+/* A frame lit by a light bake, as the drawer plays it back: per subpixel of the film (as
+ * render_direct's anti-aliasing, all subpixels at the given offsets rotated per pixel) the
+ * baked light per unit response at the surface point and view, times the response decoded
+ * live at the point's own texel. The World where camera rays miss. Combined only. */
+__kernel void render_baked(const int width, const int height, const int row0,
+                           __global const float *world_from_clip, const int tri_count,
+                           __global const float *bounds, __global const int *links,
+                           __global const float *corners, __global const int *tri_material,
+                           __global const float *ints, __global const float *floats,
+                           __global const int *material_offsets,
+                           __global const float *material_params, const float eps,
+                           __global const float *env, const int env_w, const int env_h,
+                           const float2 env_params, __global const int *tri_cuts,
+                           __global const int *tri_first, __global const int *tri_points,
+                           __global const float *baked, const int view_bins,
+                           __global const float *subpixels, const int aa_samples,
+                           __global const float *filter_table, const int transparent,
+                           const int times_response, __global float *combined)
+{
+  int x, yr;
+  launch_pixel(&x, &yr);
+  int y = row0 + yr;
+  if (x >= width || y >= height) {
+    return;
+  }
+  uint hash = pcg_hash((uint)(y * width + x) ^ 0x2545F491u);
+  float2 rotation = aa_samples > 1 ? (float2)((float)(hash >> 8), (float)(pcg_hash(hash) >> 8)) /
+                                         16777216.0f
+                                   : (float2)(0.0f);
+  float3 total = (float3)(0.0f);
+  float coverage = 0.0f;
+  for (int s = 0; s < aa_samples; s++) {
+    float2 u = vload2(s, subpixels) + rotation;
+    u -= floor(u);
+    float2 raster = (float2)(x + 0.5f, y + 0.5f) +
+                    (aa_samples > 1 ? filter_sample(filter_table, u) : (float2)(0.0f));
+    float3 o, d;
+    float t, bu, bv;
+    int tri = primary_hit_at(raster, width, height, world_from_clip, tri_count, bounds, links,
+                             corners, &o, &d, &t, &bu, &bv);
+    if (tri < 0) {
+      if (!transparent) {
+        total += env_lookup(env, env_w, env_h, env_params, d);
+      }
+      continue;
+    }
+    coverage += 1.0f;
+    SurfacePoint sp = surface_point(o, d, t, bu, bv, tri, corners, tri_material,
+                                    material_params, eps);
+    if (sp.wo.z <= 0.0f) {
+      continue;
+    }
+    __global const float *I = ints + material_offsets[2 * sp.material];
+    __global const float *F = floats + material_offsets[2 * sp.material + 1];
+    /* times_response 0: the baked values themselves (a comparison's ratio image) */
+    float3 unit = times_response ? bake_response(I, F, &sp) : (float3)(1.0f);
+    total += unit * bake_lookup(tri_cuts, tri_first, tri_points, baked, view_bins, tri, bu, bv,
+                                sp.wo);
+  }
+  float n = (float)max(aa_samples, 1);
+  vstore4((float4)(total / n, transparent ? coverage / n : 1.0f), yr * width + x, combined);
 }

@@ -26,6 +26,7 @@ MODULES = (
     "ui.blender_panels",  # Blender's own panels for this engine, by what it honours
     "tools.file_handler",
     "accuracy.operator",  # after ui.btf_panels: its panel is a child of BTF_PT_render_settings
+    "bake.operator",  # after ui.btf_panels: its panel is a child of BTF_PT_render_settings
     "ui.film",  # after ui.btf_panels: below the BTF render panel
     "tools.compress",
     "tools.asset_library",  # after ui.btf_panels: a child of BTF_PT_material

@@ -33,6 +33,7 @@ from ..render.adaptive import AdaptiveSampling
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
 from ..scene.analysis import SceneFeatures, analyse
+from ..scene.bake_points import BIN_MARGIN
 from ..scene.geometry_cache import cached_bvh
 from ..scene.lights import pack_lights
 from ..scene.scene import Scene
@@ -47,7 +48,14 @@ def program_defines(features) -> dict[str, int]:
     """The final render's build defines: the scene's effects (scene/analysis.py) and the size
     of the film filter's table (render/pixel_filter.py, read by kernels/include/btf_filter.h:
     one definition, arriving as a define). What ``is_cached`` must be asked with too."""
-    return {**features.defines(), "FILTER_TABLE_SIZE": FILTER_TABLE_SIZE}
+    # The light bake's view-bin inset (scene/bake_points.py), in per mille: an integer define,
+    # so no double literal reaches a device without doubles.
+    margin = round(BIN_MARGIN * 1000)
+    return {
+        **features.defines(),
+        "FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
+        "BAKE_BIN_MARGIN_PERMILLE": margin,
+    }
 
 
 LOCAL_SIZE = (16, 1)  # work-group shape, fixed: see CLRenderer._global_size
@@ -159,6 +167,7 @@ class CLRenderer:
         program = build_program(
             cl_context.context, cl_context.device, KERNELS, program_defines(self.features)
         )
+        self.program = program  # the light bake's kernels are in it too (cl/bake.py)
         self.kernel = cl.Kernel(program, "render_direct")
         self.kernel_mis = cl.Kernel(program, "render_env_mis")
         self._upload_geometry()
@@ -206,9 +215,11 @@ class CLRenderer:
         if len(tris):
             bvh = cached_bvh(tris[:, :, :3])  # from the disk when built before
             tris, tri_material = tris[bvh.order], tri_material[bvh.order]
+            self.triangle_order = bvh.order  # the light bake's tables follow the BVH's order
             bounds, links = bvh.bounds, bvh.links
             extent = float(np.ptp(tris[:, :, :3].reshape(-1, 3), axis=0).max())
         else:  # an empty scene: one empty leaf that nothing can hit
+            self.triangle_order = np.zeros(0, np.int64)
             bounds = np.array([[1, 1, 1, -1, -1, -1]], dtype=np.float32)
             links = np.array([[0, 0]], dtype=np.int32)
             extent = 1.0
@@ -500,6 +511,15 @@ class CLRenderer:
         combined, depth, normal, uv = self._render_in_launches(launch, (4, 1, 3, 2), progress)
         return RenderPasses(combined, depth[..., 0], normal, uv)
 
+    def prepare_sampled(self) -> None:
+        """Pack the measured codecs' sampling tables where the Sampled mode's paths read them
+        (render_sampled and the light bake, cl/bake.py)."""
+        want = self.importance_sampling and any(
+            sampled_by_table(m.btf) for m in self.scene.materials
+        )
+        if self._packed_importance != want:  # pack again only where a table changes anything
+            self._upload_materials(want)
+
     def render_sampled(
         self,
         samples: int,
@@ -524,11 +544,7 @@ class CLRenderer:
         ``adaptive_threshold`` above 0, pixels whose noise falls below it stop early
         (render/adaptive.py); ``sample_counts`` says how many samples each pixel took."""
         w, h = self.width, self.height
-        want = self.importance_sampling and any(
-            sampled_by_table(m.btf) for m in self.scene.materials
-        )
-        if self._packed_importance != want:  # pack again only where a table changes anything
-            self._upload_materials(want)
+        self.prepare_sampled()
         wfc = self._world_from_clip()
         # No bounces where nothing can be reflected (the analysis' single-convex-mesh rule).
         bounces = max(max_bounces, 0) if self.features.shadows else 0

@@ -65,6 +65,7 @@ def raise_if_interrupted() -> None:
 def build_parser(prog: str = "python -m btf_addon") -> argparse.ArgumentParser:
     from . import (
         accuracy_command,
+        bake_command,
         bridge_command,
         btf_commands,
         compress_command,
@@ -91,6 +92,7 @@ def build_parser(prog: str = "python -m btf_addon") -> argparse.ArgumentParser:
     render_command.add_parser(sub)
     bridge_command.add_parser(sub)
     accuracy_command.add_parser(sub)
+    bake_command.add_parser(sub)
     compress_command.add_parser(sub)
     return parser
 

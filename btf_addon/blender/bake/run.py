@@ -1,0 +1,71 @@
+"""One bake of an evaluated scene, whoever asks (the CLI's ``bake``, the Bake Light for VR
+operator): the scene exported as F12 exports it, its render settings' bounces and Clamp
+Indirect, the bake's own knobs, and the bake and its report written beside the .blend the same
+way, so two callers with the same file and knobs write the same data.
+
+Export (``export_for_bake``) needs bpy and runs on the main thread; the bake
+(``bake_exported``) and the writing (``write_bake``) touch no bpy data and may run on a worker
+thread."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+from ...cl.bake import BakeKnobs, bake_scene
+from ...cl.context import create_context
+from ...core.fileio import atomic_write
+from ...render.light_bake import SUFFIX, LightBake
+from ...scene.scene import Scene
+from ..export import export_scene
+from ..sync import frame_size, render_settings
+
+
+def default_path(blend_path: str | Path, scene_name: str) -> Path:
+    """Beside the .blend: ``<file>.<scene>.light_bake.npz`` (one bake per scene of a file)."""
+    blend = Path(blend_path)
+    return blend.with_name(f"{blend.stem}.{scene_name}{SUFFIX}")
+
+
+def report_path(bake_path: str | Path) -> Path:
+    """The report beside the bake: ``….light_bake.json``."""
+    path = Path(bake_path)
+    return path.with_name(path.name[: -len(".npz")] + ".json")
+
+
+def knobs_for(scene, spacing: float, view_bins: int, samples: int) -> BakeKnobs:
+    """The bake's knobs with the scene's Sampled-mode bounces, Clamp Indirect and seed."""
+    settings = render_settings(scene)
+    return BakeKnobs(
+        spacing=spacing,
+        view_bins=view_bins,
+        samples=samples,
+        bounces=settings.max_bounces,
+        clamp_indirect=settings.clamp_indirect,
+        seed=settings.seed,
+    )
+
+
+def export_for_bake(depsgraph) -> Scene:
+    """The evaluated scene as F12 exports it (main thread)."""
+    return export_scene(depsgraph, *frame_size(depsgraph.scene.render))
+
+
+def bake_exported(
+    exported: Scene,
+    knobs: BakeKnobs,
+    device_index: int | None = None,
+    progress: Callable[[float], bool] | None = None,
+) -> LightBake:
+    """The exported scene baked on the chosen device (any thread)."""
+    return bake_scene(exported, create_context(device_index), knobs, progress)
+
+
+def write_bake(bake: LightBake, path: str | Path) -> Path:
+    """The bake and its JSON report, each written whole; returns the report's path."""
+    bake.save(path)
+    report = report_path(path)
+    text = json.dumps(bake.report(), indent=2).encode()
+    atomic_write(report, lambda f: f.write(text))
+    return report
