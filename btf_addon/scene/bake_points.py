@@ -52,6 +52,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..core.errors import BTFError
 from ..core.sampling.btf_importance import hemisphere_to_square, square_to_hemisphere
 
 #: Cuts per triangle at most: it bounds any triangle at 257·258/2 = 33153 points (a larger
@@ -74,8 +75,9 @@ _DI, _DJ = np.array([0, -1, 0, -1, 0, -1]), np.array([0, 0, -1, -1, -1, 0])
 _UP = np.array([False, False, False, True, True, True])
 
 
-class BakeGridTooLarge(ValueError):  # noqa: N818 - the name callers catch
-    """The grid would exceed MAX_POINTS; the message names the spacing that fits."""
+class BakeGridTooLarge(BTFError, ValueError):  # noqa: N818 - the name callers catch
+    """The grid would exceed MAX_POINTS; the message names the spacing that fits. A BTFError:
+    the CLI exits 2 with it and the operator reports it, as any input that cannot be used."""
 
 
 @dataclass(frozen=True, eq=False)
