@@ -21,6 +21,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..core import memory
 from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, digest
 from ..render.pixel_filter import r2_points
 from ..scene.bake_analysis import bake_needs
@@ -34,6 +35,10 @@ PASS_SAMPLES = 16
 #: A launch's target length, as the final render's (render/launch.py): progress and cancel
 #: stay responsive whatever a point costs.
 LAUNCH_SECONDS = 0.1
+#: Host bytes per baked value (a point × a view bin): the float32 ratio and the float64 sums
+#: of light and response with a pass's own copies (4 × 4 × 8). With the grid's own bytes, what
+#: a bake is refused by up front (core/memory.py) before any device work.
+BAKE_VALUE_BYTES = 12 + 128
 #: Below this response (per channel) a texel gives no light to scale: its ratio is 0 there.
 RESPONSE_FLOOR = 1e-8
 
@@ -253,6 +258,13 @@ def bake_scene(
     wanted = np.array([n.anything for n in needs], bool)
     chosen = np.flatnonzero(wanted[grid.point_mesh]) if grid.point_count else np.zeros(0, int)
     bins = knobs.view_bins**2
+    memory.require(
+        memory.Estimate(
+            f"a light bake of {len(chosen)} points × {bins} view directions",
+            len(chosen) * bins * BAKE_VALUE_BYTES + grid.nbytes,
+            "raise the spacing or lower the view directions",
+        )
+    )
     ratio = np.zeros((grid.point_count, bins, 3), np.float32)
     samples = 0
     if len(chosen):

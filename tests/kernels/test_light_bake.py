@@ -490,3 +490,25 @@ def test_bake_scene_bakes_a_sphere_resting_on_a_plane(cl_context):
         assert line.startswith(f"{name}: shadows + interreflection baked at {mesh.points} points")
         other = "Ball" if name == "Ground" else "Ground"
         assert f"'{other}'" in line  # the reason names the neighbour
+
+
+def test_a_bake_beyond_the_memory_budget_is_refused_before_any_device_work(monkeypatch):
+    """The host's sums are bounded up front (cl/bake.py BAKE_VALUE_BYTES): a budget of 1 MiB
+    refuses a sphere on a ground at 1 cm before a renderer exists, saying what to change."""
+    from btf_addon.cl import bake
+    from btf_addon.core import memory
+
+    def no_renderer(*_args, **_kwargs):
+        raise AssertionError("a refused bake must not build a renderer")
+
+    monkeypatch.setattr(bake, "CLRenderer", no_renderer)
+    memory.set_limit(1 << 20)
+    try:
+        with pytest.raises(memory.MemoryLimitError, match="raise the spacing"):
+            ball = uv_sphere(0.5, 12, 6, name="Ball")
+            ball.world_from_object = np.eye(4)
+            ball.world_from_object[2, 3] = 0.5
+            scene = _scene(plane(3.0, name="Ground"), ball)
+            bake.bake_scene(scene, None, bake.BakeKnobs(spacing=0.01))
+    finally:
+        memory.set_limit(None)
