@@ -6,7 +6,8 @@ core/fileio.py (never half a file under the bake's name) as one ``.npz`` beside 
 Staleness: each mesh's digest covers its world-space triangles and its material's identity
 (codec, size, placement); the scene's covers Blender's lights and the World. A mesh's bake is
 stale when its own digest changed, when the digest of a mesh it was baked beside (shadow or
-reflection: ``neighbours``) changed, or when the lights or the World changed.
+reflection: ``neighbours``) changed, when the lights or the World changed, or when a mesh was
+added (it may stand in front of any of them).
 """
 
 from __future__ import annotations
@@ -94,8 +95,10 @@ class LightBake:
 
     def stale(self, mesh_digests: dict[str, str], scene_digest: str) -> list[str]:
         """Names of the baked meshes whose bake no longer holds (the module's rule); a mesh
-        gone from the scene is stale too."""
-        if scene_digest != self.scene_digest:
+        gone from the scene is stale too, and a mesh added to it makes every bake stale (where
+        it stands is not known here: it may shadow or reflect onto any of them)."""
+        added = set(mesh_digests) - {m.name for m in self.meshes}
+        if scene_digest != self.scene_digest or added:
             return [m.name for m in self.meshes if m.baked]
         changed = {m.name for m in self.meshes if mesh_digests.get(m.name) != m.digest}
         return [

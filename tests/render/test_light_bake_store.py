@@ -361,6 +361,14 @@ def test_a_mesh_gone_from_the_scene_is_stale(rng):
     assert bake.stale({}, "scene-1") == ["Ground", "Ball", "Lamp post"]
 
 
+def test_a_mesh_added_to_the_scene_makes_every_bake_stale(rng):
+    """Conservative: a new mesh may shadow or reflect onto any baked one."""
+    bake = _bake(rng)
+    digests = {**_digests(bake), "New chair": "0" * 24}
+    assert bake.stale(digests, "scene-1") == [m.name for m in bake.meshes if m.baked]
+    assert bake.stale(_digests(bake), "scene-1") == []
+
+
 def test_staleness_survives_the_round_trip(tmp_path, rng):
     bake = _bake(rng)
     back = load(bake.save(tmp_path / "r.light_bake.npz"))
