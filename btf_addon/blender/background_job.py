@@ -12,6 +12,14 @@ from __future__ import annotations
 TICK_SECONDS = 0.25  # how often progress is shown; also how late a finished job is noticed
 
 
+def redraw_properties(context) -> None:
+    """Tag every Properties editor for redraw: a job's panel shows its progress and result."""
+    for window in getattr(context.window_manager, "windows", ()):
+        for area in window.screen.areas:
+            if area.type == "PROPERTIES":
+                area.tag_redraw()
+
+
 class BackgroundJobModal:
     """Mixin placed before ``bpy.types.Operator`` in the bases."""
 

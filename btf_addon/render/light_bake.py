@@ -13,7 +13,6 @@ added (it may stand in front of any of them).
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import zipfile
 from dataclasses import asdict, dataclass, field
@@ -160,11 +159,3 @@ def digest(*parts) -> str:
         else:
             h.update(json.dumps(part, sort_keys=True, default=str).encode())
     return h.hexdigest()
-
-
-def npz_bytes(bake: LightBake) -> bytes:
-    """The file's bytes (tests compare two bakes' files)."""
-    buf = io.BytesIO()
-    meta = json.dumps({**bake.report(), "scene_digest": bake.scene_digest})
-    np.savez(buf, meta=np.frombuffer(meta.encode(), np.uint8), **bake.arrays)
-    return buf.getvalue()

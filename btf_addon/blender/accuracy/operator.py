@@ -27,7 +27,7 @@ from ...render.accuracy.ladder import run, settings_from_json, verify_recommenda
 from ...render.accuracy.report import error_plot, to_json
 from ...render.settings import RenderSettings
 from ..addon import ENGINE_ID
-from ..background_job import BackgroundJobModal
+from ..background_job import BackgroundJobModal, redraw_properties
 from ..preferences import preferred_device
 from ..sync import render_settings
 from .run import QuickSizes, prepare, set_up
@@ -196,13 +196,6 @@ def finish_job(operator, context, job: Job) -> set[str]:
     return {"FINISHED"}
 
 
-def _redraw_properties(context) -> None:
-    for window in getattr(context.window_manager, "windows", ()):
-        for area in window.screen.areas:
-            if area.type == "PROPERTIES":
-                area.tag_redraw()
-
-
 class BTF_OT_estimate_quality(BackgroundJobModal, Operator):
     """Measure error against render time for this scene's quality settings (virtual lights,
     samples, bounces) at a reduced size, and recommend settings for a time budget or a
@@ -235,11 +228,11 @@ class BTF_OT_estimate_quality(BackgroundJobModal, Operator):
         return finish_job(self, context, job)
 
     def _tick(self, context) -> None:
-        _redraw_properties(context)  # the panel's progress and, at the end, its plot
+        redraw_properties(context)  # the panel's progress and, at the end, its plot
 
     def _end(self, context, job: Job) -> set[str]:
         result = finish_job(self, context, job)
-        _redraw_properties(context)
+        redraw_properties(context)
         return result
 
 

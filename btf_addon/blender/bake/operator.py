@@ -24,7 +24,7 @@ from ...cl.bake import BakeKnobs
 from ...core.errors import BTFError
 from .. import compat
 from ..addon import ENGINE_ID
-from ..background_job import BackgroundJobModal
+from ..background_job import BackgroundJobModal, redraw_properties
 from ..preferences import preferred_device
 from .run import bake_exported, default_path, export_for_bake, knobs_for, write_bake
 
@@ -153,13 +153,6 @@ def report_lines(scene) -> list[str]:
     return [MeshBake(**m).line() for m in data["meshes"]]
 
 
-def _redraw_properties(context) -> None:
-    for window in getattr(context.window_manager, "windows", ()):
-        for area in window.screen.areas:
-            if area.type == "PROPERTIES":
-                area.tag_redraw()
-
-
 class BTF_OT_bake_light(BackgroundJobModal, Operator):
     """Precompute shadows and light between objects for the VR preview with the final
     render's path tracer, for the objects that need it, and write the bake beside the .blend"""
@@ -192,11 +185,11 @@ class BTF_OT_bake_light(BackgroundJobModal, Operator):
         return finish_job(self, context, job)
 
     def _tick(self, context) -> None:
-        _redraw_properties(context)
+        redraw_properties(context)
 
     def _end(self, context, job: Job) -> set[str]:
         result = finish_job(self, context, job)
-        _redraw_properties(context)
+        redraw_properties(context)
         return result
 
 
