@@ -22,11 +22,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..core import memory
-from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, digest
+from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, mesh_digests, scene_digest
 from ..render.pixel_filter import r2_points
 from ..scene.bake_analysis import bake_needs
 from ..scene.bake_points import BakeGrid, bin_directions, build_grid
-from ..scene.lights import pack_lights
 from .kernel_args import ArgumentKernel
 from .renderer import LOCAL_SIZE, CLRenderer
 
@@ -222,25 +221,6 @@ class BakeKnobs:
     bounces: int = 4
     clamp_indirect: float = 10.0
     seed: int = 0
-
-
-def mesh_digests(scene) -> dict[str, str]:
-    """Each mesh's digest (render/light_bake.py): its world-space triangles and its material."""
-    out = {}
-    for mesh in scene.meshes:
-        material = scene.materials[mesh.material]
-        block = material.block(mesh.material, mesh, scene.metres_per_unit)
-        meta = material.btf.meta
-        out[mesh.name] = digest(
-            mesh.world_space_corners(), block, meta.codec, meta.width, meta.height, material.name
-        )
-    return out
-
-
-def scene_digest(scene) -> str:
-    """The lights' and the World's digest: a change there makes every bake stale."""
-    env = scene.environment
-    return digest(pack_lights(scene.lights), env.radiance, env.rotation_z_rad)
 
 
 def bake_scene(

@@ -22,12 +22,22 @@ import numpy as np
 
 from ..core.errors import BTFError
 from ..core.fileio import atomic_write
+from ..scene.lights import pack_lights
 
-#: The file format's version: a reader refuses another.
-FORMAT_VERSION = 1
+#: The file format's version: a reader refuses another. 2: the meshes' triangle ranges
+#: (``mesh_first_triangle``, what playback finds a mesh's bake by) and two-level mesh digests.
+FORMAT_VERSION = 2
 SUFFIX = ".light_bake.npz"
 #: The grid's arrays as they travel (scene/bake_points.py BakeGrid); footprints stay behind.
-GRID_ARRAYS = ("positions", "normals", "tri_cuts", "tri_first", "tri_points", "point_mesh")
+GRID_ARRAYS = (
+    "positions",
+    "normals",
+    "tri_cuts",
+    "tri_first",
+    "tri_points",
+    "point_mesh",
+    "mesh_first_triangle",
+)
 
 
 class LightBakeError(BTFError):
@@ -77,6 +87,15 @@ class LightBake:
     @property
     def view_bins(self) -> int:
         return int(self.knobs["view_bins"])
+
+    def mesh_triangles(self, name: str) -> tuple[int, int] | None:
+        """The bake's triangles [first, end) of the baked mesh ``name`` (its triangles in the
+        order ``Mesh.world_space_corners`` gives them); None where it was not baked."""
+        first = self.arrays["mesh_first_triangle"]
+        for index, mesh in enumerate(self.meshes):
+            if mesh.name == name and mesh.baked and index + 1 < len(first):
+                return int(first[index]), int(first[index + 1])
+        return None
 
     @property
     def nbytes(self) -> int:
@@ -147,6 +166,28 @@ def load(path: str | Path) -> LightBake:
     if ratio.shape != (len(arrays["positions"]), bins, 3) or not np.all(np.isfinite(ratio)):
         raise LightBakeError(f"{path}: its values do not match its points; bake again")
     return bake
+
+
+def mesh_digest(scene, mesh, corners: np.ndarray | None = None) -> str:
+    """A mesh's digest: its world-space triangles (``corners``: its ``world_space_corners()``
+    where the caller has them already) and its material's identity and placement on it."""
+    if corners is None:
+        corners = mesh.world_space_corners()
+    material = scene.materials[mesh.material]
+    block = material.block(mesh.material, mesh, scene.metres_per_unit)
+    meta = material.btf.meta
+    return digest(digest(corners), block, meta.codec, meta.width, meta.height, material.name)
+
+
+def mesh_digests(scene) -> dict[str, str]:
+    """Each mesh's ``mesh_digest`` by name."""
+    return {mesh.name: mesh_digest(scene, mesh) for mesh in scene.meshes}
+
+
+def scene_digest(scene) -> str:
+    """The lights' and the World's digest: a change there makes every bake stale."""
+    env = scene.environment
+    return digest(pack_lights(scene.lights), env.radiance, env.rotation_z_rad)
 
 
 def digest(*parts) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from helpers import make_blend, run_cli
 
-from btf_addon.render.light_bake import GRID_ARRAYS, load
+from btf_addon.render.light_bake import FORMAT_VERSION, GRID_ARRAYS, load
 
 pytestmark = [
     pytest.mark.blender,
@@ -120,7 +120,7 @@ def test_bake_says_per_object_what_was_baked(baked):
         assert mine[0].endswith(f"({mesh['reason']})"), mine[0]
     assert report["knobs"]["spacing"] == 0.5 and report["knobs"]["view_bins"] == 2
     assert report["knobs"]["samples"] == 16  # one whole pass of 16
-    assert report["version"] == 1
+    assert report["version"] == FORMAT_VERSION
 
 
 def test_baked_values_are_finite_and_show_the_contact(baked):

@@ -43,6 +43,8 @@ def _arrays(rng: np.random.Generator, points: int = 6, bins: int = 4) -> dict[st
         "tri_first": np.array([0, 3], np.int32),
         "tri_points": np.array([0, 1, 2, 3, 4, 5], np.int32),
         "point_mesh": np.array([0, 0, 0, 1, 1, 1], np.int32)[:points],
+        # _meshes(): Ground triangle 0, Ball triangle 1, Lamp post and Moon none
+        "mesh_first_triangle": np.array([0, 1, 2, 2, 2], np.int32),
         "ratio": rng.random((points, bins, 3)).astype(np.float32),
     }
 
@@ -101,6 +103,15 @@ def _bake(rng: np.random.Generator, **changes) -> LightBake:
     }
     fields.update(changes)
     return LightBake(**fields)
+
+
+def test_mesh_triangles_finds_a_baked_mesh_by_name_and_nothing_else(rng):
+    bake = _bake(rng)
+    assert bake.mesh_triangles("Ground") == (0, 1)
+    assert bake.mesh_triangles("Ball") == (1, 2)
+    assert bake.mesh_triangles("Lamp post") == (2, 2)  # baked, but no triangles
+    assert bake.mesh_triangles("Moon") is None  # not baked: drawn with live light
+    assert bake.mesh_triangles("Sun") is None  # not in the bake
 
 
 def _digests(bake: LightBake) -> dict[str, str]:
