@@ -542,10 +542,14 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
  * the same points. Their ratio is the light per unit of that response: playback multiplies it
  * by the response at the pixel's own texel, decoded live, so the bake carries the light
  * (centimetres coarse) and the live decode the material's detail (0.1 mm). Sums are written
- * (xyz; w: the samples counted), the host adds launches. */
+ * (xyz; w: the samples counted), the host adds launches. Points [point0, point_end) index the
+ * footprints given (a subset of the grid's points: a re-bake traces only the stale meshes');
+ * point_ids gives each one's index in the whole grid, which seeds its paths, so a point gets the
+ * same random numbers whichever subset is baked: a partial re-bake equals a full one there. */
 __kernel void bake_light(const int point0, const int point_end, const int bin_count,
                          const int footprint, __global const int *foot_tri,
-                         __global const float *foot_bary, __global const float *bin_dirs,
+                         __global const float *foot_bary, __global const int *point_ids,
+                         __global const float *bin_dirs,
                          const int tri_count, __global const float *bounds,
                          __global const int *links, __global const float *corners,
                          __global const int *tri_material, __global const float *ints,
@@ -577,7 +581,8 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
                   window_row_pdf, window_cdf, window_block,
                   max_bounces, indirect_limit};                   /* the path's limits */
   float3 wo = vload3(0, bin_dirs + 4 * bin);
-  uint point_seed = pcg_hash((uint)(p * bin_count + bin) ^ pcg_hash(seed));
+  /* unsigned: defined past 2^31, where an int's overflow is not (the same value below it) */
+  uint point_seed = pcg_hash(((uint)point_ids[p] * (uint)bin_count + (uint)bin) ^ pcg_hash(seed));
   float3 light = (float3)(0.0f), unit = (float3)(0.0f);
   int counted = 0;
   for (int si = 0; si < samples; si++) {

@@ -10,7 +10,23 @@
  *              block's M_EXPOSURE, as the OpenCL kernels read it), w = how many Blender
  *              lights scene_lights holds (shaders/scene_lights_lib.glsl). Each batch adds them
  *              × its light count, so the resolve's division by the lights so far leaves them
- *              added exactly once at every stage of the accumulation. */
+ *              added exactly once at every stage of the accumulation.
+ * v_bake_tri, v_bake_bary: this fragment's triangle in the light bake and its barycentrics
+ *              (shaders/bake_lib.glsl); v_bake_tri < 0 where the mesh has no bake to play back.
+ *              A baked fragment adds the bake's light × the batch's light count, as Blender's
+ *              lights: whatever the number of lights, it is converged from the first batch. */
+
+/* What the bake's value is per unit of (as bake_response in btf_bake.h): a measured material's
+ * response to one light along the normal at this fragment's texel, times exposure; an analytic
+ * material's light is stored as it is. map_point ran first. */
+vec3 bake_response(vec3 n, vec3 wo_world)
+{
+  int codec = itab(H_CODEC);
+  if (codec == CODEC_MLVQ || codec == CODEC_DENSE || codec == CODEC_SVD) {
+    return btf_mapped(n, n, wo_world) * mblock(M_EXPOSURE);
+  }
+  return vec3(1.0);
+}
 
 void main()
 {
@@ -26,6 +42,14 @@ void main()
   map_point(v_world, n, t, b, v_uv);
   vec3 sum = vec3(0.0);
   int first = int(light_range.x), count = int(light_range.y);
+  if (v_bake_tri >= 0.0) {
+    if (count > 0 && wo.z > 0.0) {
+      vec3 light = bake_lookup(int(v_bake_tri + 0.5), v_bake_bary, wo);
+      sum = float(count) * bake_response(n, wo_world) * light;
+    }
+    frag_color = vec4(sum, 1.0);
+    return;
+  }
   for (int i = first; i < first + count; i++) {
     vec3 dir = texelFetch(lights, ivec2(2 * i, 0), 0).xyz;
     vec3 weight = texelFetch(lights, ivec2(2 * i + 1, 0), 0).rgb;

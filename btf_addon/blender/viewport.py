@@ -16,6 +16,7 @@ from ..core.mat4 import inverse
 from ..gl.drawer import ProgressiveDrawer, ViewAccumulation
 from ..render.lighting import frame_lights
 from .export import ExportCache, changed_ids, export_scene
+from .export.light_bake import remember_status
 from .gpu_draw import BlenderGPUDevice
 from .sync import render_settings
 
@@ -66,6 +67,7 @@ def view_draw(engine, context, depsgraph) -> None:
         try:
             scene_data = export_scene(depsgraph, *size, cache=state.cache, viewport=True)
             state.drawer = ProgressiveDrawer(state.device, scene_data, previous=state.drawer)
+            remember_status(scene, state.drawer)  # for the Light Bake panel
             state.error = ""
         except BTFMaterialsError as exc:  # bad input or a shader that does not compile
             state.drawer, state.error = None, str(exc)

@@ -11,6 +11,11 @@ texel, so the bake carries the light and the live decode the material's detail.
 Work goes in passes of a few samples over every point, each pass in launches of a bounded
 number of points: a cancel between launches keeps every finished pass, so a stopped bake is a
 noisier bake of the whole scene, never a bake of half of it.
+
+A point's paths are seeded by its index in the whole grid, never by its place in the launched
+subset, so a point's values do not depend on which other points are baked with it: a re-bake
+that traces only the stale meshes (``bake_scene``'s ``previous``) gives them, bit for bit, what
+a full bake of the same scene gives them.
 """
 
 from __future__ import annotations
@@ -22,9 +27,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..core import memory
-from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, mesh_digests, scene_digest
+from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, mesh_digest, scene_digest
 from ..render.pixel_filter import r2_points
-from ..scene.bake_analysis import bake_needs
+from ..scene.bake_analysis import bake_needs, neighbours_by_name
 from ..scene.bake_points import BakeGrid, bin_directions, build_grid
 from .kernel_args import ArgumentKernel
 from .renderer import LOCAL_SIZE, CLRenderer
@@ -76,10 +81,12 @@ def bake_light(
     max_bounces: int,
     seed: int = 0,
     progress: Callable[[float], bool] | None = None,
+    point_ids: np.ndarray | None = None,
 ) -> BakedLight:
     """Bake ``samples`` paths per point and view bin (rounded up to whole passes) at the points
     whose footprints are given (scene/bake_points.py: (P, F) triangles in the scene's order and
-    (P, F, 2) barycentrics). ``progress``
+    (P, F, 2) barycentrics). ``point_ids``: each footprint's point in the whole grid, what its
+    paths are seeded by (None: 0 … P − 1, the footprints are the whole grid). ``progress``
     sees the fraction done after each launch; False stops after the last finished pass."""
     cl, ctx = renderer.cl, renderer.ctx
     t0 = time.perf_counter()
@@ -90,11 +97,15 @@ def bake_light(
     buf = renderer._buffer
     foot_tri = buf(_device_order(renderer, footprint_tri).ravel(), np.int32)
     foot_bary = buf(footprint_bary.ravel(), np.float32)
+    ids = np.arange(points) if point_ids is None else np.asarray(point_ids)
+    if ids.shape != (points,):
+        raise ValueError(f"point_ids must be ({points},), not {ids.shape}")
+    ids = buf(ids, np.int32)
     dirs = np.zeros((bins, 4), np.float32)
     dirs[:, :3] = bin_directions(view_bins)
     bin_dirs = buf(dirs.ravel(), np.float32)
     world = [renderer.eps, *renderer._env_args(), *renderer._next_event_tables()]
-    passes = max(1, -(-int(samples) // PASS_SAMPLES))
+    passes = whole_passes(samples) // PASS_SAMPLES
     radiance = np.zeros((points, bins, 4), np.float64)
     response = np.zeros((points, bins, 4), np.float64)
     kernel = ArgumentKernel(cl.Kernel(renderer.program, "bake_light"))
@@ -120,6 +131,7 @@ def bake_light(
                 np.int32(footprint),
                 foot_tri,
                 foot_bary,
+                ids,
                 bin_dirs,
                 *renderer._scene_args(),
                 *world,
@@ -223,30 +235,132 @@ class BakeKnobs:
     seed: int = 0
 
 
+def whole_passes(samples: int) -> int:
+    """The samples a finished bake asked for ``samples`` averages: whole passes of
+    PASS_SAMPLES, one at least (what ``bake_light`` traces and a finished bake's knobs say)."""
+    return max(1, -(-int(samples) // PASS_SAMPLES)) * PASS_SAMPLES
+
+
+def mesh_blocks(point_mesh: np.ndarray, meshes: int) -> np.ndarray | None:
+    """(meshes + 1,) each mesh's first point, then the point count: mesh m owns points
+    [a[m], a[m + 1]). None where its points are not one block per mesh in the meshes' order.
+    scene/bake_points.py ``build_grid`` numbers points by their first grid vertex, vertices go
+    triangle by triangle and mesh by mesh, and welding joins vertices of one mesh only: a
+    grid's points are always such blocks (``bake_scene`` asserts it)."""
+    point_mesh = np.asarray(point_mesh)
+    if len(point_mesh) and (
+        np.any(np.diff(point_mesh) < 0) or point_mesh[0] < 0 or point_mesh[-1] >= meshes
+    ):
+        return None
+    counts = np.bincount(point_mesh, minlength=meshes) if len(point_mesh) else np.zeros(meshes)
+    return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+
+@dataclass
+class _Reuse:
+    """What a re-bake takes from the last bake: per mesh (index in the scene now) the first
+    point of its block there (``kept``), or why it is traced again (``why``)."""
+
+    kept: dict[int, int]
+    why: dict[int, str]
+
+
+def _knobs_differ(last: dict, knobs: BakeKnobs) -> str:
+    """The knobs a bake's ``last`` differ in from a finished bake with ``knobs``, as
+    "name then → now"; empty where none does (a cancelled bake differs in its samples)."""
+    now = {**asdict(knobs), "samples": whole_passes(knobs.samples)}
+    names = [k for k in dict.fromkeys([*now, *last]) if last.get(k) != now.get(k)]
+    return ", ".join(f"{k} {last.get(k)} → {now.get(k)}" for k in names)
+
+
+def _reuse(
+    previous: LightBake | None,
+    knobs: BakeKnobs,
+    needs: list,
+    digests: dict[str, str],
+    digest_of_scene: str,
+    blocks: np.ndarray,
+) -> _Reuse:
+    """Which meshes that need a bake keep their values from ``previous`` (``bake_scene``'s
+    rule) and why the others do not."""
+    out = _Reuse({}, {})
+    if previous is None:
+        return out
+    wanted = [need for need in needs if need.anything]
+    differ = _knobs_differ(previous.knobs, knobs)
+    old = mesh_blocks(previous.arrays["point_mesh"], len(previous.meshes))
+    everything = (
+        f"the last bake's knobs differ ({differ})"
+        if differ
+        else "the last bake's points are not in blocks per mesh"
+        if old is None
+        else ""
+    )
+    if everything:
+        out.why = {need.mesh: everything for need in wanted}
+        return out
+    stale = previous.why_stale(digests, digest_of_scene, neighbours=neighbours_by_name(needs))
+    index = {m.name: k for k, m in enumerate(previous.meshes)}
+    for need in wanted:
+        k = index.get(need.name)
+        if k is None:
+            out.why[need.mesh] = "new since the last bake"
+        elif not previous.meshes[k].baked:
+            out.why[need.mesh] = "not baked last time"
+        elif need.name in stale:
+            out.why[need.mesh] = stale[need.name]
+        elif old[k + 1] - old[k] != blocks[need.mesh + 1] - blocks[need.mesh]:
+            out.why[need.mesh] = "its bake points differ from the last bake's"
+        else:
+            out.kept[need.mesh] = int(old[k])
+    return out
+
+
 def bake_scene(
     scene,
     cl_context,
     knobs: BakeKnobs = BakeKnobs(),
     progress: Callable[[float], bool] | None = None,
+    previous: LightBake | None = None,
 ) -> LightBake:
     """The scene analysed (scene/bake_analysis.py), and the meshes that need it baked on one
-    renderer of the scene; the others are listed with the reason they were skipped."""
+    renderer of the scene; the others are listed with the reason they were skipped.
+
+    ``previous``: the last bake of this scene (render/light_bake.py ``load``), None for a bake
+    of everything. A mesh that needs a bake keeps its values from there, copied, not traced,
+    when the last bake was made with the same knobs (its samples: whole passes of ours, so a
+    cancelled bake is baked again whole), baked it, does not find it stale
+    (``LightBake.stale`` with the current analysis' neighbours) and has as many points there
+    as the grid gives it now. Only the others go to the device; their MeshBake says why
+    (``rebaked``), a kept one says ``kept``. A mesh that needs no bake now is not baked,
+    whether the last bake had it or not (its values there are not carried over)."""
     t0 = time.perf_counter()
     needs = bake_needs(scene)
     corners = [m.world_space_corners() for m in scene.meshes]
     grid = build_grid(corners, knobs.spacing, footprint=knobs.footprint, seed=knobs.seed)
-    wanted = np.array([n.anything for n in needs], bool)
-    chosen = np.flatnonzero(wanted[grid.point_mesh]) if grid.point_count else np.zeros(0, int)
+    blocks = mesh_blocks(grid.point_mesh, len(scene.meshes))
+    assert blocks is not None, "a bake grid's points must be one block per mesh, in order"
+    digests = {n.name: mesh_digest(scene, scene.meshes[n.mesh], corners[n.mesh]) for n in needs}
+    reuse = _reuse(previous, knobs, needs, digests, scene_digest(scene), blocks)
+    traced = [need.anything and need.mesh not in reuse.kept for need in needs]
+    chosen = np.flatnonzero(np.repeat(traced, np.diff(blocks)))
+    kept_points = sum(int(blocks[i + 1] - blocks[i]) for i in reuse.kept)
     bins = knobs.view_bins**2
     memory.require(
         memory.Estimate(
             f"a light bake of {len(chosen)} points × {bins} view directions",
-            len(chosen) * bins * BAKE_VALUE_BYTES + grid.nbytes,
+            (len(chosen) * BAKE_VALUE_BYTES + kept_points * 12) * bins + grid.nbytes,
             "raise the spacing or lower the view directions",
         )
     )
     ratio = np.zeros((grid.point_count, bins, 3), np.float32)
-    samples = 0
+    for i, first in reuse.kept.items():
+        count = blocks[i + 1] - blocks[i]
+        ratio[blocks[i] : blocks[i + 1]] = previous.arrays["ratio"][first : first + count]
+    # What every baked value averages: the kept ones a finished bake's samples (the knobs
+    # matched), the traced ones what the device finished; fewer (a cancel) and the next
+    # re-bake finds the knobs differ and bakes everything again.
+    samples = int(previous.knobs["samples"]) if reuse.kept else 0
     if len(chosen):
         renderer = CLRenderer(scene, 1, 1, cl_context, film=None)
         renderer.clamp_indirect = knobs.clamp_indirect
@@ -259,31 +373,36 @@ def bake_scene(
             knobs.bounces,
             knobs.seed,
             progress,
+            point_ids=chosen,
         )
         ratio[chosen] = baked.ratio
         samples = baked.samples
     seconds = time.perf_counter() - t0
-    digests = mesh_digests(scene)
-    counts = np.bincount(grid.point_mesh, minlength=len(scene.meshes)) if grid.point_count else None
-    total_points = max(len(chosen), 1)
-    meshes = []
-    for i, need in enumerate(needs):
-        points = int(counts[i]) if counts is not None and need.anything else 0
-        meshes.append(
-            MeshBake(
-                name=need.name,
-                digest=digests[need.name],
-                baked=need.anything,
-                shadows=need.shadows,
-                interreflection=need.interreflection,
-                reason=need.reason,
-                neighbours=list(need.neighbours),
-                points=points,
-                # the bake's time shared by points: every point costs about the same
-                seconds=round(seconds * points / total_points, 3),
-            )
-        )
+    meshes = [
+        _mesh_bake(need, digests[need.name], blocks, reuse, seconds / max(len(chosen), 1))
+        for need in needs
+    ]
     arrays = {k: getattr(grid, k) for k in GRID_ARRAYS}
     arrays["ratio"] = ratio
     knob_values = {**asdict(knobs), "samples": samples}
     return LightBake(arrays, knob_values, meshes, scene_digest(scene), seconds)
+
+
+def _mesh_bake(need, digest: str, blocks: np.ndarray, reuse: _Reuse, per_point: float):
+    """The report's line of one mesh; ``per_point``: the bake's time per traced point (every
+    point costs about the same)."""
+    points = int(blocks[need.mesh + 1] - blocks[need.mesh]) if need.anything else 0
+    kept = need.mesh in reuse.kept
+    return MeshBake(
+        name=need.name,
+        digest=digest,
+        baked=need.anything,
+        shadows=need.shadows,
+        interreflection=need.interreflection,
+        reason=need.reason,
+        neighbours=list(need.neighbours),
+        points=points,
+        seconds=0.0 if kept else round(per_point * points, 3),
+        kept=kept,
+        rebaked=reuse.why.get(need.mesh, ""),
+    )

@@ -23,8 +23,12 @@ direction (--view-bins squared), as a ratio over the material's live decode so t
 detail stays sharp.
 
 Output (DIR, default the .blend's folder): <file>.<scene>.light_bake.npz, written whole, and
-<file>.<scene>.light_bake.json, the report (per object: baked or skipped, why, points, time).
-Ctrl-C stops after the last finished pass of samples and writes that (noisier) bake.
+<file>.<scene>.light_bake.json, the report (per object: baked, kept or skipped, why, points,
+time). Ctrl-C stops after the last finished pass of samples and writes that (noisier) bake.
+
+Re-baking: where that .npz exists already, an object whose bake still holds (it, the objects
+beside it, the lights and the World unchanged, the same knobs) keeps its values from it and
+only the others are traced; the report says which were kept. --all bakes everything again.
 """
 
 
@@ -59,6 +63,11 @@ def add_parser(sub) -> None:
         help=f"paths per bake point and view direction (default {defaults.samples})",
     )
     p.add_argument("--device", type=int, metavar="N", help="OpenCL device index (`doctor`)")
+    p.add_argument(
+        "--all",
+        action="store_true",
+        help="bake every object again (default: keep those unchanged since the last bake)",
+    )
     p.set_defaults(func=cmd_bake)
 
 
@@ -69,7 +78,9 @@ def cmd_bake(args) -> int:
         bake_exported,
         default_path,
         export_for_bake,
+        kept_summary,
         knobs_for,
+        last_bake,
         write_bake,
     )
     from .render_command import _engine_registered
@@ -91,9 +102,12 @@ def cmd_bake(args) -> int:
         # Held back, so a Ctrl-C ends the bake between launches and what was finished is
         # written whole; the signal is delivered (exit 130) when the block ends.
         with interrupts.deferred():
+            previous, why = last_bake(path, everything=args.all)
+            if why:
+                print(why, file=sys.stderr)
             try:
                 exported = export_for_bake(bpy.context.evaluated_depsgraph_get())
-                bake = bake_exported(exported, knobs, args.device, progress)
+                bake = bake_exported(exported, knobs, args.device, progress, previous)
             finally:
                 bar.close()
             if bake.knobs["samples"] == 0 and any(m.baked for m in bake.meshes):
@@ -102,6 +116,8 @@ def cmd_bake(args) -> int:
             report = write_bake(bake, path)
             for mesh in bake.meshes:
                 print(mesh.line())
+            if summary := kept_summary(bake):
+                print(summary)
             print(
                 f"light bake: {path} ({bake.nbytes / 2**20:.1f} MiB, {bake.seconds:.1f} s, "
                 f"{bake.knobs['samples']} samples); report: {report}",

@@ -142,6 +142,8 @@ def cmd_bridge(args) -> int:
     print(f"runtime: {status.runtime}")
     print(f"values from: {status.values_from}" + (f" ({status.message})" if status.message else ""))
     print(f"eye size: {w}x{h}; frames: {status.frames}; FPS: {fps}")
+    if status.bake:
+        print(status.bake)
     for line in status.warmup:  # why the start and the first frames took long
         print(f"warm-up: {line}")
     for eye in sorted(status.lights_per_frame):

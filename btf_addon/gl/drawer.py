@@ -17,10 +17,16 @@ division mixes surfaces and World by coverage. A view resolved over a transparen
 accumulation converges to the filtered image: F12's Virtual Lights mode with the lights split
 over as many subpixels renders exactly it (same offsets, same order).
 
+A light bake (``Scene.light_bake``, render/light_bake.py) is played back on the meshes it still
+holds (render/bake_playback.py): their fragments add the bake's light × the batch's light
+count, as Blender's lights are added, so the resolve shows them converged from the first batch
+and their cost does not grow with the lights. ``bake_status`` says which meshes play it back
+and which are stale (drawn with live light).
+
 The drawer holds what belongs to the scene (programs, BTF tables, vertex buffers, the World,
-Blender's lights); a ``ViewAccumulation`` holds what belongs to one view (its targets, its
-virtual lights, its progress, the camera its accumulation was started with). Two eyes are two
-views of one drawer.
+Blender's lights, the light bake's tables); a ``ViewAccumulation`` holds what belongs to one
+view (its targets, its virtual lights, its progress, the camera its accumulation was started
+with). Two eyes are two views of one drawer.
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ from ..core.codecs.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
 from ..core.codecs.packed import layout_stream, pack
 from ..core.mat4 import inverse
 from ..core.sampling.envmap import VirtualLights
+from ..render import bake_playback
 from ..render.pixel_filter import PixelFilter, subpixel_offset
 from ..render.progressive import ProgressiveState
 from ..scene.lights import pack_lights
@@ -56,6 +63,8 @@ MAX_SIZE = 16384  # pixels per side: beyond any GPU's texture limit
 # fragment loops over 255 or more (relative RMSE 1.4 % at 256 lights in one draw, 5e-8 at 128,
 # on a woven sphere; tests/gl/test_light_batches.py); a larger batch is several draws added up.
 MAX_LIGHTS_PER_DRAW = 128
+# Each corner's barycentrics in its triangle (of corners 1 and 2): interpolated, the fragment's.
+CORNER_BARY = np.array([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)], dtype=np.float32)
 # Two triangles covering clip space: one fragment per pixel of the bound target.
 QUAD = np.array([(-1, -1), (1, -1), (-1, 1), (-1, 1), (1, -1), (1, 1)], dtype=np.float32)
 _serials = itertools.count(1)
@@ -132,10 +141,11 @@ class ProgressiveDrawer:
 
     Built from a ``previous`` drawer (same device), it keeps every upload whose source did not
     change: BTF tables per BTF object (the exporter caches BTFs by file and fallback colour),
-    vertex buffers per mesh (same object-space arrays and world matrix), the environment per
-    Environment object. So a viewport edit re-uploads only what the depsgraph reported as
-    changed. ``previous`` hands its uploads over: what this drawer does not reuse is released,
-    and ``previous`` must not draw again.
+    vertex buffers per mesh (same object-space arrays and world matrix, same place in the light
+    bake), the environment per Environment object, the light bake's tables per bake. So a
+    viewport edit re-uploads only what the depsgraph reported as changed. ``previous`` hands
+    its uploads over: what this drawer does not reuse is released, and ``previous`` must not
+    draw again.
     """
 
     def __init__(self, device: Device, scene: Scene, previous: ProgressiveDrawer | None = None):
@@ -167,10 +177,21 @@ class ProgressiveDrawer:
                     self._upload_tables(material.btf),
                 )
             self.tables.append(self._table_uploads[key][1])
+        for mesh in scene.meshes:  # world-space corners, kept for the next drawer's batches
+            k = _mesh_key(mesh)
+            self._corners[k] = (
+                self._corners.get(k)
+                or old_corners.get(k)
+                or (mesh.positions, mesh.world_space_corners())
+            )
+        self.digests = bake_playback.DigestCache(previous.digests if previous else None)
+        self.playback = self._plan_playback(scene)
+        self.bake_status = self.playback.status if scene.light_bake is not None else None
         # One batch per material, its meshes' triangles in one vertex buffer, each vertex with
-        # its mesh's row of the material blocks (``blk``): a draw per material instead of per
-        # mesh, so a scene of many objects costs a few draws per pass (Blender's VR session
-        # draws every eye with them). A batch is kept while none of its meshes changed.
+        # its mesh's row of the material blocks (``blk``) and its place in the light bake: a
+        # draw per material instead of per mesh, so a scene of many objects costs a few draws
+        # per pass (Blender's VR session draws every eye with them). A batch is kept while none
+        # of its meshes changed and each keeps its place in the bake.
         self.batches: list[tuple[Any, int]] = []  # (vertices, material index), empty ones out
         groups: dict[int, list[int]] = {}
         for mesh_index, mesh in enumerate(scene.meshes):
@@ -178,24 +199,26 @@ class ProgressiveDrawer:
         for material_index, members in groups.items():
             meshes = [scene.meshes[i] for i in members]
             keys = [_mesh_key(m) for m in meshes]
-            key = (material_index, *zip(members, keys, strict=True))
+            places = [self.playback.bake_triangle(i) for i in members]
+            key = (material_index, *zip(members, keys, places, strict=True))
             if key not in self._batch_uploads:
                 self._batch_uploads[key] = old_batches.get(key) or (
                     [m.positions for m in meshes],
-                    self._upload_batch(members, meshes, keys, old_corners),
-                )
-            for k, m in zip(keys, meshes, strict=True):  # kept for the next drawer's batches
-                self._corners[k] = (
-                    self._corners.get(k)
-                    or old_corners.get(k)
-                    or (
-                        m.positions,
-                        m.world_space_corners(),
-                    )
+                    self._upload_batch(members, keys, places),
                 )
             vertices = self._batch_uploads[key][1]
             if vertices is not None:
                 self.batches.append((vertices, material_index))
+        # The bake's tables, kept while the same bake is played back.
+        old_bake = previous._bake_upload if previous else None
+        bake = scene.light_bake if self.playback.first_triangle else None
+        if bake is None:
+            self._bake_upload = None
+        elif old_bake is not None and old_bake[0] is bake:
+            self._bake_upload = old_bake
+        else:
+            index, values = bake_playback.bake_textures(bake)
+            self._bake_upload = (bake, (device.texture(index), device.texture(values)))
         env = scene.environment
         if previous is not None and previous.scene.environment is env:
             self.env_tex = previous.env_tex
@@ -214,12 +237,14 @@ class ProgressiveDrawer:
                 previous.quad_background,
                 previous.quad_resolve,
             )
-            self.no_lights = previous.no_lights
+            self.no_lights, self.no_bake = previous.no_lights, previous.no_bake
         else:
             self.quad_background = device.vertices(self.background_program, {"pos": QUAD})
             self.quad_resolve = device.vertices(self.resolve_program, {"pos": QUAD})
             # Bound to the lights sampler before a view has lights (a depth pre-pass reads none).
             self.no_lights = device.texture(np.zeros((1, 2, 4), dtype=np.float32))
+            # Bound to the bake's samplers where no mesh plays a bake back (none reads them).
+            self.no_bake = device.texture(np.zeros((1, 1, 4), dtype=np.float32))
         # Blender's lights: five RGBA texels each (scene/lights.py), drawn without shadows.
         self.scene_lights_tex = device.texture(pack_lights(scene.lights).reshape(1, -1, 4))
         # Per mesh its material's parameter block (core/codecs/packed.py MATERIAL_BLOCK): mapping,
@@ -230,6 +255,26 @@ class ProgressiveDrawer:
             previous._hand_over(self)
 
     # --- uploads ---------------------------------------------------------------------------
+    def _plan_playback(self, scene: Scene) -> bake_playback.BakePlayback:
+        """Which meshes play the scene's light bake back (none without one)."""
+        bake = scene.light_bake
+        if bake is None:
+            return bake_playback.BakePlayback(bake_playback.BakeStatus())
+        corners = [self._corners[_mesh_key(m)][1] for m in scene.meshes]
+        digests = [
+            self.digests.mesh(scene, m, _mesh_key(m), c)
+            for m, c in zip(scene.meshes, corners, strict=True)
+        ]
+        max_rows = getattr(self.device, "max_texture_size", MAX_TEXTURE_SIZE)
+        return bake_playback.plan(
+            bake,
+            scene,
+            digests,
+            [len(c) // 3 for c in corners],
+            self.digests.scene(scene),
+            max_rows,
+        )
+
     def _upload_tables(self, btf) -> tuple[Any, Any]:
         # Too large for the device's textures: a reduced-resolution copy, said in the log.
         btf, note = fit_for_gpu(btf, getattr(self.device, "max_texture_size", MAX_TEXTURE_SIZE))
@@ -238,28 +283,33 @@ class ProgressiveDrawer:
         packed = pack(btf)
         return self.device.texture(packed.ints), self.device.texture(packed.floats)
 
-    def _upload_batch(self, members: list[int], meshes: list[Mesh], keys: list[tuple], old):
-        """One vertex buffer of ``meshes`` (world space), each vertex with its mesh's block row
-        (``members``: the meshes' indices, rows of the material blocks); None when empty."""
-        parts, rows = [], []
-        for index, mesh, key in zip(members, meshes, keys, strict=True):
-            cached = self._corners.get(key) or old.get(key)
-            data = cached[1] if cached else mesh.world_space_corners()  # (3 × tris, 12)
-            self._corners[key] = (mesh.positions, data)
+    def _upload_batch(self, members: list[int], keys: list[tuple], places: list[int]):
+        """One vertex buffer of meshes ``members`` (their indices, rows of the material
+        blocks; ``keys``: their corners' keys; ``places``: their first bake triangles, −1 for
+        live light), in world space; None when empty."""
+        parts, rows, tris = [], [], []
+        for index, key, place in zip(members, keys, places, strict=True):
+            data = self._corners[key][1]  # (3 × tris, 12)
             parts.append(data)
             rows.append(np.full(len(data), index, dtype=np.float32))
+            count = len(data) // 3
+            tri = place + np.arange(count) if place >= 0 else np.full(count, -1)
+            tris.append(np.repeat(tri, 3).astype(np.float32))
         data = np.concatenate(parts) if parts else np.zeros((0, 12), np.float32)
         if len(data) == 0:
             return None
         attributes = {"pos": data[:, 0:3], "nor": data[:, 3:6], "uv": data[:, 6:8]}
         attributes["tan"] = data[:, 8:12]
         attributes["blk"] = np.concatenate(rows)
+        attributes["bake_tri"] = np.concatenate(tris)
+        attributes["bake_bary"] = np.tile(CORNER_BARY, (len(data) // 3, 1))
         return self.device.vertices(self.surface, attributes)
 
     def _owned(self) -> list[Any]:
         objects = [t for _, pair in self._table_uploads.values() for t in pair]
         objects += [v for _, v in self._batch_uploads.values()]
         objects += [self.env_tex, self.quad_background, self.quad_resolve, self.no_lights]
+        objects += [self.no_bake, *(self._bake_upload[1] if self._bake_upload else ())]
         return [*objects, self.scene_lights_tex, self.blocks_tex]
 
     def _hand_over(self, successor: ProgressiveDrawer) -> None:
@@ -274,7 +324,7 @@ class ProgressiveDrawer:
 
     def _forget(self) -> None:
         self._table_uploads, self._batch_uploads, self.tables, self.batches = {}, {}, [], []
-        self._corners = {}
+        self._corners, self._bake_upload = {}, None
         self.released = True
 
     # --- drawing ---------------------------------------------------------------------------
@@ -432,6 +482,7 @@ class ProgressiveDrawer:
         if clip_from_world is None:
             clip_from_world = view.clip_from_world
         lights = view.lights if view.lights is not None else self.no_lights
+        bake_index, bake_values = self._bake_upload[1] if self._bake_upload else (self.no_bake,) * 2
         device.set_state(state)
         try:
             light_range = (first, count, 0.0, len(self.scene.lights))
@@ -448,6 +499,8 @@ class ProgressiveDrawer:
                     "lights": lights,
                     "scene_lights": self.scene_lights_tex,
                     "material_blocks": self.blocks_tex,
+                    "bake_index": bake_index,
+                    "bake_values": bake_values,
                 }
                 device.draw(self.surface, vertices, uniforms, samplers)
         finally:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ..core.codecs import packed
 from ..core.errors import BuildError
+from ..scene.bake_points import BIN_MARGIN
 
 SHADERS_DIR = Path(__file__).resolve().parents[2] / "shaders"
 MAX_SAMPLERS = 16  # Metal's limit: what every back end of this add-on keeps to
@@ -57,6 +58,7 @@ class ShaderInterface:
     samplers: tuple[tuple[int, str, str], ...]  # (slot, FLOAT_2D | INT_2D, name)
     push_constants: tuple[tuple[str, str], ...] = ()  # (type, name)
     varyings: tuple[tuple[str, str], ...] = ()  # (type, name), smooth
+    flat_varyings: tuple[tuple[str, str], ...] = ()  # (type, name): the provoking vertex's
     libraries: tuple[str, ...] = ()  # shaders/*.glsl prepended to the fragment body
     vertex_file: str = ""
     fragment_file: str = ""
@@ -98,8 +100,10 @@ class ShaderInterface:
             for loc, t, n in self.vertex_inputs
         )
         vs += "".join(f"out {_GLSL_TYPES[t]} {n};\n" for t, n in self.varyings)
+        vs += "".join(f"flat out {_GLSL_TYPES[t]} {n};\n" for t, n in self.flat_varyings)
         fs = head + uniforms
         fs += "".join(f"in {_GLSL_TYPES[t]} {n};\n" for t, n in self.varyings)
+        fs += "".join(f"flat in {_GLSL_TYPES[t]} {n};\n" for t, n in self.flat_varyings)
         fs += "".join(
             f"layout(location = {slot}) out {_GLSL_TYPES[t]} {n};\n"
             for slot, t, n in self.fragment_outputs
@@ -119,10 +123,12 @@ class ShaderInterface:
             info.sampler(slot, t, n)
         for t, n in self.push_constants:
             info.push_constant(t, n)
-        if self.varyings:
+        if self.varyings or self.flat_varyings:
             stage = gpu.types.GPUStageInterfaceInfo(f"{self.name}_iface")
             for t, n in self.varyings:
                 stage.smooth(t, n)
+            for t, n in self.flat_varyings:
+                stage.flat(t, n)
             info.vertex_out(stage)
         for k, v in self.build_defines().items():
             info.define(k, v)
@@ -158,12 +164,16 @@ QUERY_SHADER = ShaderInterface(
 SURFACE_SHADER = ShaderInterface(
     name="btf_surface",
     # blk: the vertex's mesh's row of the material blocks (one batch holds a material's meshes).
+    # bake_tri, bake_bary: its triangle in the light bake (−1: none) and the corner's
+    # barycentrics (0, 0), (1, 0), (0, 1), interpolated to the fragment's (shaders/bake_lib.glsl).
     vertex_inputs=(
         (0, "VEC3", "pos"),
         (1, "VEC3", "nor"),
         (2, "VEC2", "uv"),
         (3, "VEC4", "tan"),
         (4, "FLOAT", "blk"),
+        (5, "FLOAT", "bake_tri"),
+        (6, "VEC2", "bake_bary"),
     ),
     fragment_outputs=((0, "VEC4", "frag_color"),),
     samplers=(
@@ -172,6 +182,8 @@ SURFACE_SHADER = ShaderInterface(
         (2, "FLOAT_2D", "lights"),
         (3, "FLOAT_2D", "scene_lights"),
         (4, "FLOAT_2D", "material_blocks"),
+        (5, "FLOAT_2D", "bake_index"),
+        (6, "FLOAT_2D", "bake_values"),
     ),
     push_constants=(("MAT4", "clip_from_world"), ("VEC4", "camera"), ("VEC4", "light_range")),
     # v_block: equal at a triangle's three corners, so interpolation keeps it (read rounded).
@@ -181,10 +193,32 @@ SURFACE_SHADER = ShaderInterface(
         ("VEC2", "v_uv"),
         ("VEC4", "v_tangent"),
         ("FLOAT", "v_block"),
+        ("VEC2", "v_bake_bary"),
     ),
-    libraries=(*BTF_LIBRARIES, "btf_mapping_lib.glsl", "scene_lights_lib.glsl"),
+    # exact: a triangle number past 2^24 / a few ulps would round to its neighbour's
+    flat_varyings=(("FLOAT", "v_bake_tri"),),
+    libraries=(*BTF_LIBRARIES, "btf_mapping_lib.glsl", "scene_lights_lib.glsl", "bake_lib.glsl"),
     vertex_file="surface_vert.glsl",
     fragment_file="surface_frag.glsl",
+    defines={"BAKE_BIN_MARGIN": repr(float(BIN_MARGIN))},
+)
+
+# The light bake's lookup alone, per query texel (gl/query.py ``glsl_bake_lookup``): what tests
+# compare with the numpy rule (scene/bake_points.py ``playback``).
+BAKE_QUERY_SHADER = ShaderInterface(
+    name="btf_bake_query",
+    vertex_inputs=((0, "VEC2", "pos"),),
+    fragment_outputs=((0, "VEC4", "frag_color"),),
+    samplers=(
+        (0, "FLOAT_2D", "bake_index"),
+        (1, "FLOAT_2D", "bake_values"),
+        (2, "FLOAT_2D", "query_a"),
+        (3, "FLOAT_2D", "query_b"),
+    ),
+    libraries=("bake_lib.glsl",),
+    vertex_file="query_vert.glsl",
+    fragment_file="bake_query_frag.glsl",
+    defines=SURFACE_SHADER.defines,
 )
 
 BACKGROUND_SHADER = ShaderInterface(

@@ -15,7 +15,7 @@ from ..core.codecs.packed import pack
 from ..core.errors import DeviceError
 from ..core.model import BTF, DelegatingBTF, Queries
 from . import host_context
-from .interface import QUERY_SHADER, ShaderCompileError
+from .interface import BAKE_QUERY_SHADER, QUERY_SHADER, ShaderCompileError
 
 #: What to install where no EGL context can be made (a DeviceError: exit 2, fixable).
 EGL_ADVICE = (
@@ -96,36 +96,81 @@ class GLSLEvaluator:
         make_current(self.ctx)
         self.int_tex, self.float_tex = upload_tables(self.ctx, btf)
         self.program = compile_program(self.ctx)
-        quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
-        self.vbo = self.ctx.buffer(quad.tobytes())
-        self.vao = self.ctx.vertex_array(self.program, [(self.vbo, "2f", "pos")])
+        self.vao, self.vbo = _quad(self.ctx, self.program)
         for slot, _type, name in QUERY_SHADER.samplers:
             if name in self.program:
                 self.program[name].value = slot
 
     def __call__(self, q: Queries) -> np.ndarray:
         make_current(self.ctx)
-        n = len(q.uv)
-        a, b, (w, h) = query_textures(q)
-        tex_a = self.ctx.texture((w, h), 4, a.tobytes(), dtype="f4")
-        tex_b = self.ctx.texture((w, h), 4, b.tobytes(), dtype="f4")
-        target = self.ctx.texture((w, h), 4, dtype="f4")
-        fbo = self.ctx.framebuffer(color_attachments=[target])
-        try:
-            for tex in (tex_a, tex_b):
-                tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-            self.int_tex.use(0)
-            self.float_tex.use(1)
-            tex_a.use(2)
-            tex_b.use(3)
-            fbo.use()
-            self.ctx.viewport = (0, 0, w, h)
-            self.vao.render()
-            out = np.frombuffer(fbo.read(components=4, dtype="f4"), dtype=np.float32)
-        finally:
-            for obj in (fbo, target, tex_a, tex_b):
-                obj.release()
-        return out.reshape(h * w, 4)[:n, :3].astype(np.float64)
+        a, b, size = query_textures(q)
+        return _draw_queries(self.ctx, self.vao, (self.int_tex, self.float_tex), a, b, size)[
+            : len(q.uv)
+        ]
+
+
+def _quad(ctx, program):
+    quad = np.array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1], dtype=np.float32)
+    vbo = ctx.buffer(quad.tobytes())
+    return ctx.vertex_array(program, [(vbo, "2f", "pos")]), vbo
+
+
+def _draw_queries(ctx, vao, tables, a: np.ndarray, b: np.ndarray, size) -> np.ndarray:
+    """One full-screen draw of ``vao`` with ``tables`` on texture units 0, 1 and the query
+    images ``a``, ``b`` on 2, 3 → (h·w, 3) float64 values, a texel per query."""
+    w, h = size
+    tex_a = ctx.texture((w, h), 4, a.tobytes(), dtype="f4")
+    tex_b = ctx.texture((w, h), 4, b.tobytes(), dtype="f4")
+    target = ctx.texture((w, h), 4, dtype="f4")
+    fbo = ctx.framebuffer(color_attachments=[target])
+    try:
+        for tex in (tex_a, tex_b):
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        for unit, tex in enumerate((*tables, tex_a, tex_b)):
+            tex.use(unit)
+        fbo.use()
+        ctx.viewport = (0, 0, w, h)
+        vao.render()
+        out = np.frombuffer(fbo.read(components=4, dtype="f4"), dtype=np.float32)
+    finally:
+        for obj in (fbo, target, tex_a, tex_b):
+            obj.release()
+    return out.reshape(h * w, 4)[:, :3].astype(np.float64)
+
+
+def glsl_bake_lookup(bake, tri, bary, wo, ctx=None) -> np.ndarray:
+    """(N, 3) float64: the light bake's lookup (shaders/bake_lib.glsl) at bake triangles
+    ``tri`` (N,), barycentrics ``bary`` (N, 2) and views ``wo`` (N, 3, the surface's frame);
+    ``bake``: a render/light_bake.py LightBake."""
+    from ..render.bake_playback import bake_textures
+
+    ctx = ctx or create_gl_context()
+    make_current(ctx)
+    program = compile_program(ctx, BAKE_QUERY_SHADER)
+    for slot, _type, name in BAKE_QUERY_SHADER.samplers:
+        if name in program:
+            program[name].value = slot
+    tables = []
+    for array in bake_textures(bake):
+        h, w = array.shape[:2]
+        channels = 1 if array.ndim == 2 else array.shape[2]
+        tex = ctx.texture((w, h), channels, np.ascontiguousarray(array).tobytes(), dtype="f4")
+        tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        tables.append(tex)
+    n = len(tri)
+    w = min(max(n, 1), QUERY_TILE)
+    h = -(-n // w) if n else 1
+    a = np.zeros((h * w, 4), dtype=np.float32)
+    b = np.zeros((h * w, 4), dtype=np.float32)
+    a[:n] = np.column_stack([tri, bary, np.ones(n)])
+    b[:n, :3] = wo
+    vao, vbo = _quad(ctx, program)
+    try:
+        out = _draw_queries(ctx, vao, tables, a.reshape(h, w, 4), b.reshape(h, w, 4), (w, h))
+    finally:
+        for obj in (vao, vbo, program, *tables):
+            obj.release()
+    return out[:n]
 
 
 def glsl_btf(btf: BTF, ctx=None) -> DelegatingBTF:

@@ -4,10 +4,28 @@ look can tell which bakes a change has made stale. bpy- and device-free; written
 core/fileio.py (never half a file under the bake's name) as one ``.npz`` beside the .blend.
 
 Staleness: each mesh's digest covers its world-space triangles and its material's identity
-(codec, size, placement); the scene's covers Blender's lights and the World. A mesh's bake is
-stale when its own digest changed, when the digest of a mesh it was baked beside (shadow or
-reflection: ``neighbours``) changed, when the lights or the World changed, or when a mesh was
-added (it may stand in front of any of them).
+(codec, size, placement); the scene's covers Blender's lights and the World. A mesh "differs"
+when its digest changed, when it is gone from the scene or when it was added to it. A baked
+mesh M's bake is stale (``LightBake.stale``) when
+
+- the lights or the World changed (every baked mesh), or
+- M itself differs (moved, edited, re-materialed, gone), or
+- a mesh that differs is among M's neighbours (the meshes that may shadow or reflect onto it,
+  scene/bake_analysis.py): those it was baked beside (``MeshBake.neighbours``, the bake's own
+  record) or, where the current scene's analysis is given (``neighbours``), those beside it
+  now. The old ones catch a mesh moved away (its shadow must go), the new ones a mesh moved
+  or added next to M.
+
+Without the current analysis, where a mesh added to the scene stands is not known: it makes
+every bake stale (conservative). Only the first ring of neighbours counts, as the analysis
+itself reasons: light that reaches M after bounces off a neighbour N changes when a mesh
+moves next to N but not next to M, and that change is not tracked (a user bakes again with
+Re-bake Everything / ``--all``).
+
+Staleness says whether a bake still holds, not whether it is still needed: a mesh baked
+earlier that the current analysis would not bake (nothing beside it any more, and unchanged)
+is not stale, its values can still be played back; a re-bake simply does not bake it again.
+A mesh that needs a bake now and has none is ``LightBake.missing``.
 """
 
 from __future__ import annotations
@@ -15,6 +33,7 @@ from __future__ import annotations
 import hashlib
 import json
 import zipfile
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -57,6 +76,12 @@ class MeshBake:
     neighbours: list[str] = field(default_factory=list)
     points: int = 0
     seconds: float = 0.0
+    #: Its values were copied from the last bake, not traced: nothing its bake depends on
+    #: changed since (the module's rule); ``seconds`` is then 0.
+    kept: bool = False
+    #: Why it was traced although a last bake was given (knobs that differ, what changed, not
+    #: baked last time); empty when it was kept or there was no last bake to keep from.
+    rebaked: str = ""
 
     def line(self) -> str:
         """The panel's one line for this mesh."""
@@ -67,9 +92,15 @@ class MeshBake:
         ]
         if not self.baked:
             return f"{self.name}: not baked ({self.reason})"
+        if self.kept:
+            return (
+                f"{self.name}: {' + '.join(what)} baked at {self.points} points "
+                f"(kept: unchanged since the last bake; {self.reason})"
+            )
+        again = f"; re-baked: {self.rebaked}" if self.rebaked else ""
         return (
             f"{self.name}: {' + '.join(what)} baked at {self.points} points in "
-            f"{self.seconds:.1f} s ({self.reason})"
+            f"{self.seconds:.1f} s ({self.reason}){again}"
         )
 
 
@@ -111,19 +142,45 @@ class LightBake:
             "meshes": [asdict(m) for m in self.meshes],
         }
 
-    def stale(self, mesh_digests: dict[str, str], scene_digest: str) -> list[str]:
-        """Names of the baked meshes whose bake no longer holds (the module's rule); a mesh
-        gone from the scene is stale too, and a mesh added to it makes every bake stale (where
-        it stands is not known here: it may shadow or reflect onto any of them)."""
-        added = set(mesh_digests) - {m.name for m in self.meshes}
-        if scene_digest != self.scene_digest or added:
-            return [m.name for m in self.meshes if m.baked]
-        changed = {m.name for m in self.meshes if mesh_digests.get(m.name) != m.digest}
-        return [
-            m.name
-            for m in self.meshes
-            if m.baked and (m.name in changed or changed & set(m.neighbours))
-        ]
+    def stale(
+        self,
+        mesh_digests: dict[str, str],
+        scene_digest: str,
+        *,
+        neighbours: dict[str, list[str]] | None = None,
+    ) -> list[str]:
+        """Names of the baked meshes whose bake no longer holds, in the bake's order (the
+        module's rule). ``mesh_digests``: the current scene's, by name; ``neighbours``: per
+        current mesh, the meshes beside it now (scene/bake_analysis.py
+        ``current_neighbours``); None, or a mesh it has no entry for: any mesh added to the
+        scene makes that bake stale."""
+        return list(self.why_stale(mesh_digests, scene_digest, neighbours=neighbours))
+
+    def why_stale(
+        self,
+        mesh_digests: dict[str, str],
+        scene_digest: str,
+        *,
+        neighbours: dict[str, list[str]] | None = None,
+    ) -> dict[str, str]:
+        """``stale``'s names, each with why in a few words (for the report)."""
+        baked = [m for m in self.meshes if m.baked]
+        if scene_digest != self.scene_digest:
+            return {m.name: "the lights or the World changed" for m in baked}
+        differ = _differ({m.name: m.digest for m in self.meshes}, mesh_digests)
+        added = [name for name, how in differ.items() if how == "added"]
+        out = {}
+        for mesh in baked:
+            now = None if neighbours is None else neighbours.get(mesh.name)
+            if why := _why_stale(mesh, differ, added, now):
+                out[mesh.name] = why
+        return out
+
+    def missing(self, needed: Iterable[str]) -> list[str]:
+        """Of ``needed`` (the meshes the current analysis would bake: ``BakeNeeds.anything``),
+        those this bake has no values for, in the given order: "X needs a bake"."""
+        baked = {m.name for m in self.meshes if m.baked}
+        return [name for name in needed if name not in baked]
 
     def save(self, path: str | Path) -> Path:
         meta = json.dumps({**self.report(), "scene_digest": self.scene_digest})
@@ -132,6 +189,43 @@ class LightBake:
             np.savez(f, meta=np.frombuffer(meta.encode(), np.uint8), **self.arrays)
 
         return atomic_write(path, write)
+
+
+#: How a neighbour differs → what the stale reason says of it.
+_VERBS = {"changed": "beside it changed", "gone": "beside it is gone", "added": "added beside it"}
+
+
+def _differ(old: dict[str, str], new: dict[str, str]) -> dict[str, str]:
+    """The meshes whose digest is not the same in ``old`` and ``new`` (by name), each with how
+    it differs: "changed", "gone" (only in ``old``) or "added" (only in ``new``)."""
+    return {
+        name: "added" if name not in old else "gone" if name not in new else "changed"
+        for name in dict.fromkeys([*old, *new])
+        if old.get(name) != new.get(name)
+    }
+
+
+def _why_stale(
+    mesh: MeshBake, differ: dict[str, str], added: list[str], now: list[str] | None
+) -> str:
+    """Why the baked ``mesh`` is stale (the module's rule), "" where it is not; ``now``: its
+    neighbours in the current analysis, None where not known."""
+    if mesh.name in differ:
+        return "it changed" if differ[mesh.name] == "changed" else "it is gone"
+    if now is None and added:  # where the new ones stand is not known: any may matter
+        return f"{_quoted(added)} added to the scene"
+    near = [n for n in dict.fromkeys([*mesh.neighbours, *(now or ())]) if n in differ]
+    return "; ".join(
+        f"{_quoted(names)} {verb}"
+        for how, verb in _VERBS.items()
+        if (names := [n for n in near if differ[n] == how])
+    )
+
+
+def _quoted(names: list[str], most: int = 3) -> str:
+    """Names for a one-line reason: the first ``most``, then how many more."""
+    text = ", ".join(f"'{n}'" for n in names[:most])
+    return text + (f" and {len(names) - most} more" if len(names) > most else "")
 
 
 def load(path: str | Path) -> LightBake:

@@ -200,3 +200,16 @@ def bake_needs(scene: Scene) -> list[BakeNeeds]:
             )
         )
     return out
+
+
+def neighbours_by_name(needs: list[BakeNeeds]) -> dict[str, list[str]]:
+    """Per mesh of an analysis (``bake_needs``' result), the meshes that may shadow or reflect
+    onto it: what render/light_bake.py ``LightBake.stale`` takes as ``neighbours``."""
+    return {need.name: list(need.neighbours) for need in needs}
+
+
+def current_neighbours(scene: Scene) -> dict[str, list[str]]:
+    """``neighbours_by_name`` of the scene analysed now (``bake_needs``: its cost, bounded by
+    MAX_BAKE_WORK; a caller that needs the analysis too passes its result to
+    ``neighbours_by_name`` instead of analysing twice)."""
+    return neighbours_by_name(bake_needs(scene))

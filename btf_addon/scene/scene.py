@@ -7,6 +7,7 @@ points to world space. World space is Blender's: Z up, metres.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -188,6 +189,9 @@ class Scene:
     messages: list[str] = field(default_factory=list)
     lights: list[Light] = field(default_factory=list)  # Blender lights: scene/lights.py
     metres_per_unit: float = 1.0  # Blender's Unit Scale: what real-world sizes measure in
+    #: The light bake the drawer plays back (render/light_bake.py ``LightBake``; None: none).
+    #: Typed loosely: this layer does not import render/.
+    light_bake: Any = None
 
     def material_blocks(self) -> np.ndarray:
         """(len(meshes), MATERIAL_BLOCK_FLOATS) float32: one parameter block per mesh (its

@@ -117,7 +117,9 @@ class BridgeStatus:
     draws 0.10 s)": parts of 5 ms or more, xr/bridge_device.py), and any later frame slowed by
     compiling or uploading (a new scene); the latest also leads ``message`` while the run
     warms up (before the first line: "warming up: opening the OpenXR session", "warming up:
-    compiling shaders, uploading the scene")."""
+    compiling shaders, uploading the scene"). ``bake``: the light bake's status line
+    (render/bake_playback.py: which objects show baked light, which are stale); empty without
+    a bake."""
 
     runtime: str = ""
     state: str = "not started"
@@ -129,6 +131,7 @@ class BridgeStatus:
     message: str = ""
     frames: int = 0
     warmup: tuple[str, ...] = ()
+    bake: str = ""
 
 
 def world_from_space(world_from_camera: np.ndarray, head_in_space: np.ndarray) -> np.ndarray:
@@ -381,10 +384,16 @@ class XRBridge:
         try:
             self.drawer.draw_resolved(view, self.settings.exposure)
             if self.settings.show_hud:
-                eye.draw_hud(clip_from_view, self._eye_offset(index), self._material_name())
+                offset, material = self._eye_offset(index), self._material_name()
+                eye.draw_hud(clip_from_view, offset, material, self._bake_line())
         finally:
             if srgb:
                 ctx.disable_direct(GL_FRAMEBUFFER_SRGB)
+
+    def _bake_line(self) -> tuple[str, ...]:
+        """The light bake's status for the HUD and the status (none without a bake)."""
+        status = self.drawer.bake_status if self.drawer is not None else None
+        return (status.line(),) if status is not None else ()
 
     def _eye_offset(self, index: int) -> float:
         """∓IPD/2: the eyes' distance as located (the profile's IPD before two are known)."""
@@ -457,6 +466,7 @@ class XRBridge:
             message=message,
             frames=self.frames,
             warmup=tuple(self.warmup),
+            bake="".join(self._bake_line()),
         )
         with self._lock:
             self._status = status

@@ -67,3 +67,43 @@ def test_operator_and_command_line_bake_the_same_data(bpy_module, fresh_scene, t
     for key, array in ours.arrays.items():
         np.testing.assert_array_equal(array, theirs.arrays[key], err_msg=key)
     assert np.any(ours.arrays["ratio"] > 0)
+
+
+def test_baking_again_keeps_what_is_unchanged(bpy_module, fresh_scene, tmp_path):
+    """Baked twice: the second keeps both objects (the panel says so) with the same values;
+    the sphere moved, both are traced again (each lies beside the other), saying why; Re-bake
+    Everything traces both though nothing changed."""
+    bpy = bpy_module
+    scene = _scene(bpy, tmp_path)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
+    store = extension_submodule("btf_addon.render.light_bake")
+    written = tmp_path / f"scene.{scene.name}.light_bake.npz"
+    assert bpy.ops.btf.bake_light() == {"FINISHED"}
+    first = store.load(written)
+
+    def meshes() -> dict[str, dict]:
+        return {m["name"]: m for m in json.loads(scene.btf_bake.report)["meshes"]}
+
+    assert bpy.ops.btf.bake_light() == {"FINISHED"}
+    assert [m["kept"] for m in meshes().values()] == [True, True]
+    module = extension_submodule("btf_addon.blender.bake.operator")
+    labels = draw_panel(module.BTF_PT_render_light_bake, bpy.context).labels
+    kept = [label for label in labels if "(kept: unchanged since the last bake; " in label]
+    assert len(kept) == 2, labels
+    again = store.load(written)
+    for key, array in first.arrays.items():
+        assert again.arrays[key].tobytes() == array.tobytes(), key
+
+    sphere = next(o for o in scene.objects if o.type == "MESH" and o.name.startswith("Sphere"))
+    ground = next(o for o in scene.objects if o.type == "MESH" and o is not sphere)
+    sphere.location.z += 0.05
+    assert bpy.ops.btf.bake_light() == {"FINISHED"}
+    moved = meshes()
+    assert not any(m["kept"] for m in moved.values())
+    assert moved[sphere.name]["rebaked"] == "it changed"
+    assert moved[ground.name]["rebaked"] == f"'{sphere.name}' beside it changed"
+
+    assert bpy.ops.btf.bake_light() == {"FINISHED"}  # the moved scene, unchanged since
+    assert all(m["kept"] for m in meshes().values())
+    assert bpy.ops.btf.bake_light(rebake_all=True) == {"FINISHED"}
+    assert not any(m["kept"] or m["rebaked"] for m in meshes().values())

@@ -82,7 +82,12 @@ def real_messages(tmp_path) -> list[str]:
     loose.write_text("1 2 3\n")
     missing = paths.MissingSource("Wool", "//btf/wool", "//btf/wool: no such file or folder")
     compile_error = programs.OpenCLCompileError("render_direct.cl", "pthread-cpu", "1:2: error")
+    playback = extension_submodule("btf_addon.render.bake_playback")
+    light_bake = extension_submodule("btf_addon.render.light_bake")
+    kept = light_bake.MeshBake("Ball", "", True, True, False, "on the ground", kept=True)
     return [
+        playback.BakeStatus(played=("Suzanne",), stale=("Ground",)).line(),
+        kept.line(),
         paths.source_hint(str(loose)),
         paths.source_hint(""),
         paths.missing_message([missing]),

@@ -1,12 +1,14 @@
 """``bake``: a .blend's light baked for the VR preview, through the CLI (real Blender, real
 OpenCL): a sphere resting on a ground, each of which shadows and reflects onto the other, so
 both are baked; where the files go; the errors before any baking; the bake is the same bit for
-bit when run again."""
+bit when run again; run again beside its bake it keeps what is unchanged, --all bakes
+everything, a damaged bake is not used."""
 
 from __future__ import annotations
 
 import importlib.util
 import json
+import shutil
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -211,3 +213,49 @@ def test_missing_blend_and_bad_knobs_are_refused(tmp_path):
         proc = run_cli("bake", "--blend", not_blend, flag, value, check=False)
         assert proc.returncode == 2 and flag in proc.stderr, proc.stderr
     assert _listing(tmp_path) == ["text.blend"]
+
+
+def _same_values(a, b) -> None:
+    for name in (*GRID_ARRAYS, "ratio"):
+        assert a.arrays[name].tobytes() == b.arrays[name].tobytes(), name
+
+
+def test_a_second_bake_keeps_what_is_unchanged_and_all_bakes_everything(baked, tmp_path):
+    """The .blend and its bake copied elsewhere: run again, the bake keeps both objects (no
+    tracing: no progress shown) and says so; --all traces both again (the same values: the
+    bake is deterministic); a damaged bake file is not used, said in one line, and everything
+    is baked."""
+    blend, npz = tmp_path / "s.blend", tmp_path / NPZ
+    shutil.copy(baked.blend, blend)
+    shutil.copy(baked.folder / NPZ, npz)
+    first = load(npz)
+
+    kept = run_cli("bake", "--blend", blend, *KNOBS)
+    again = load(npz)
+    assert [m.kept for m in again.meshes] == [True, True], again.meshes
+    _same_values(again, first)
+    assert "% baking" not in kept.stderr, kept.stderr
+    for mesh in again.meshes:
+        assert (
+            f"{mesh.name}: shadows + interreflection baked at {mesh.points} points (kept: "
+            "unchanged since the last bake; " in kept.stdout
+        ), kept.stdout
+    assert "kept unchanged since the last bake: 'Ground', 'Ball'; 0 objects baked again" in (
+        kept.stdout
+    )
+    assert [m["kept"] for m in _report_in(tmp_path)["meshes"]] == [True, True]
+
+    everything = run_cli("bake", "--blend", blend, *KNOBS, "--all")
+    whole = load(npz)
+    assert not any(m.kept or m.rebaked for m in whole.meshes), whole.meshes
+    assert "% baking" in everything.stderr and "kept" not in everything.stdout
+    _same_values(whole, first)
+
+    npz.write_bytes(b"not a light bake\n")
+    damaged = run_cli("bake", "--blend", blend, *KNOBS)
+    said = [line for line in damaged.stderr.splitlines() if "the last bake is not used" in line]
+    assert len(said) == 1 and said[0].startswith("baking everything: "), damaged.stderr
+    assert str(npz) in said[0] and "bake again" in said[0]
+    rebaked = load(npz)
+    assert not any(m.kept for m in rebaked.meshes)
+    _same_values(rebaked, first)

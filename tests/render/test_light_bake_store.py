@@ -380,6 +380,95 @@ def test_a_mesh_added_to_the_scene_makes_every_bake_stale(rng):
     assert bake.stale(_digests(bake), "scene-1") == []
 
 
+#: The current analysis' neighbours (scene/bake_analysis.py current_neighbours) of the scene
+#: as baked: nothing moved.
+NEIGHBOURS = {"Ground": ["Ball"], "Ball": ["Ground"], "Lamp post": [], "Moon": []}
+
+
+def test_with_the_current_neighbours_a_change_far_away_stales_nothing_else(rng):
+    """The Moon (never baked, beside nothing) moved, far from everything: no bake is stale
+    (before and after it stands beside none of them); the Lamp post moved alone: only it."""
+    bake = _bake(rng)
+    digests = {**_digests(bake), "Moon": "d-moon-moved"}
+    assert bake.stale(digests, "scene-1", neighbours=NEIGHBOURS) == []
+    digests = {**_digests(bake), "Lamp post": "d-post-moved"}
+    assert bake.stale(digests, "scene-1", neighbours=NEIGHBOURS) == ["Lamp post"]
+
+
+def test_a_mesh_moved_next_to_a_baked_one_stales_it(rng):
+    """The Moon moved beside the Lamp post: the analysis now lists it there (new neighbours),
+    though the bake did not (old neighbours)."""
+    bake = _bake(rng)
+    digests = {**_digests(bake), "Moon": "d-moon-moved"}
+    now = {**NEIGHBOURS, "Lamp post": ["Moon"], "Moon": ["Lamp post"]}
+    assert bake.stale(digests, "scene-1", neighbours=now) == ["Lamp post"]
+    assert bake.why_stale(digests, "scene-1", neighbours=now) == {
+        "Lamp post": "'Moon' beside it changed"
+    }
+
+
+def test_a_mesh_moved_away_still_stales_the_one_it_was_baked_beside(rng):
+    """The Ball moved away from the Ground: the analysis no longer lists it beside the Ground,
+    but the Ground's bake holds its shadow (old neighbours)."""
+    bake = _bake(rng)
+    digests = {**_digests(bake), "Ball": "d-ball-moved-away"}
+    now = {**NEIGHBOURS, "Ground": [], "Ball": []}
+    assert bake.stale(digests, "scene-1", neighbours=now) == ["Ground", "Ball"]
+    assert bake.why_stale(digests, "scene-1", neighbours=now) == {
+        "Ground": "'Ball' beside it changed",
+        "Ball": "it changed",
+    }
+
+
+def test_an_added_mesh_stales_only_the_bakes_it_stands_beside(rng):
+    bake = _bake(rng)
+    digests = {**_digests(bake), "New chair": "0" * 24}
+    far = {**NEIGHBOURS, "New chair": []}
+    assert bake.stale(digests, "scene-1", neighbours=far) == []
+    beside = {**NEIGHBOURS, "Ball": ["Ground", "New chair"], "New chair": ["Ball"]}
+    assert bake.stale(digests, "scene-1", neighbours=beside) == ["Ball"]
+    assert bake.why_stale(digests, "scene-1", neighbours=beside) == {
+        "Ball": "'New chair' added beside it"
+    }
+    # Without the analysis (None), where it stands is not known: every bake is stale.
+    assert bake.stale(digests, "scene-1") == ["Ground", "Ball", "Lamp post"]
+    assert set(bake.why_stale(digests, "scene-1").values()) == {"'New chair' added to the scene"}
+    # ... and so for a mesh the analysis given has no entry for (it was not analysed).
+    partial = {k: v for k, v in far.items() if k != "Lamp post"}
+    assert bake.stale(digests, "scene-1", neighbours=partial) == ["Lamp post"]
+
+
+def test_a_removed_neighbour_stales_the_bakes_beside_it(rng):
+    bake = _bake(rng)
+    digests = _digests(bake)
+    del digests["Ball"]
+    now = {"Ground": [], "Lamp post": [], "Moon": []}
+    assert bake.why_stale(digests, "scene-1", neighbours=now) == {
+        "Ground": "'Ball' beside it is gone",
+        "Ball": "it is gone",
+    }
+
+
+def test_changed_lights_or_world_stale_every_bake_whatever_the_neighbours(rng):
+    bake = _bake(rng)
+    stale = bake.why_stale(_digests(bake), "scene-2", neighbours=NEIGHBOURS)
+    assert stale == dict.fromkeys(
+        ["Ground", "Ball", "Lamp post"], "the lights or the World changed"
+    )
+
+
+def test_a_baked_mesh_that_needs_nothing_now_is_not_stale_and_missing_names_the_unbaked(rng):
+    """The Lamp post (unchanged, nothing beside it) would not be baked now, say: its bake still
+    holds, so it is not stale. The Moon needs a bake now (something moved beside it, say) and
+    has none: ``missing`` names it, as it names a mesh new to the scene."""
+    bake = _bake(rng)
+    assert bake.stale(_digests(bake), "scene-1", neighbours=NEIGHBOURS) == []
+    needed = ["Ground", "Ball", "Moon", "New chair"]  # not the Lamp post
+    assert bake.missing(needed) == ["Moon", "New chair"]
+    assert bake.missing(["Ground", "Lamp post"]) == []
+    assert bake.missing([]) == []
+
+
 def test_staleness_survives_the_round_trip(tmp_path, rng):
     bake = _bake(rng)
     back = load(bake.save(tmp_path / "r.light_bake.npz"))
@@ -409,6 +498,42 @@ def test_mesh_lines_say_what_was_baked_and_why():
         "Wall: shadows baked at 12 points in 2.0 s ('Roof' in front of it)"
     )
     assert moon.line() == "Moon: not baked (alone and convex: nothing to bake)"
+
+
+def test_lines_of_kept_and_rebaked_meshes_say_so():
+    ground = _meshes()[0]
+    ground.kept, ground.seconds = True, 0.0
+    assert ground.line() == (
+        "Ground: shadows + interreflection baked at 3 points (kept: unchanged since the last "
+        "bake; 'Ball' and it face each other: shadows and interreflection)"
+    )
+    ball = _meshes()[1]
+    ball.rebaked = "'Ground' beside it changed"
+    assert ball.line() == (
+        "Ball: shadows + interreflection baked at 3 points in 1.2 s ('Ground' and it face each "
+        "other: shadows and interreflection); re-baked: 'Ground' beside it changed"
+    )
+
+
+def test_kept_travels_with_the_report_and_a_file_without_it_loads(tmp_path, rng):
+    """``kept``/``rebaked`` are in the report and the file; a version-2 file written before
+    they existed (no such keys) loads with them False/empty."""
+    meshes = _meshes()
+    meshes[0].kept = True
+    meshes[1].rebaked = "it changed"
+    bake = _bake(rng, meshes=meshes)
+    report = bake.report()
+    assert [m["kept"] for m in report["meshes"]] == [True, False, False, False]
+    assert report["meshes"][1]["rebaked"] == "it changed"
+    assert load(bake.save(tmp_path / "k.light_bake.npz")).meshes == meshes
+    meta = {**bake.report(), "scene_digest": bake.scene_digest}
+    for mesh in meta["meshes"]:
+        del mesh["kept"], mesh["rebaked"]
+    path = tmp_path / "before.light_bake.npz"
+    _write_npz(path, meta, bake.arrays)
+    back = load(path)
+    assert back.meshes == _meshes()
+    assert not any(m.kept or m.rebaked for m in back.meshes)
 
 
 def test_report_is_json(rng):

@@ -7,6 +7,10 @@ a modal timer shows progress; Esc or the panel's Cancel stops after the last fin
 samples and writes that bake. From a script (``bpy.ops.btf.bake_light()``, no window) it bakes
 to the end before returning. The bake lies beside the saved .blend; the scene keeps its path
 (relative, like BTF sources) and the report's JSON, whose one line per object the panel shows.
+
+Re-baking: the bake already beside the .blend is read on the worker thread and only what is
+stale or missing there is traced, the rest kept (blender/bake/run.py ``last_bake``, as the
+CLI's ``bake``); Re-bake Everything (``rebake_all``) traces every object again.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ import threading
 from pathlib import Path
 
 import bpy
-from bpy.props import FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ...cl.bake import BakeKnobs
@@ -25,8 +29,16 @@ from ...core.errors import BTFError
 from .. import compat
 from ..addon import ENGINE_ID
 from ..background_job import BackgroundJobModal, redraw_properties
+from ..export.light_bake import last_status
 from ..preferences import preferred_device
-from .run import bake_exported, default_path, export_for_bake, knobs_for, write_bake
+from .run import (
+    bake_exported,
+    default_path,
+    export_for_bake,
+    knobs_for,
+    last_bake,
+    write_bake,
+)
 
 log = logging.getLogger(__name__)
 _DEFAULTS = BakeKnobs()
@@ -66,10 +78,13 @@ class BTFBakeSettings(PropertyGroup):
 
 
 class Job:
-    """One bake on a worker thread; the thread touches no bpy data."""
+    """One bake on a worker thread; the thread touches no bpy data. ``everything``: trace
+    every object, not only what is stale or missing in the bake already at ``path``."""
 
-    def __init__(self, exported, knobs: BakeKnobs, path: Path):
+    def __init__(self, exported, knobs: BakeKnobs, path: Path, everything: bool = False):
         self.exported, self.knobs, self.path = exported, knobs, path
+        self.everything = everything
+        self.note = ""  # why the last bake was not used, when it could not be
         self.cancel = threading.Event()
         self.done = threading.Event()
         self.fraction, self.text = 0.0, "opening the OpenCL device, loading the kernels"
@@ -83,7 +98,12 @@ class Job:
 
     def _work(self) -> None:
         try:
-            bake = bake_exported(self.exported, self.knobs, preferred_device(), self._progress)
+            self.text = "reading the last bake"
+            previous, self.note = last_bake(self.path, self.everything)
+            self.text = "opening the OpenCL device, loading the kernels"
+            bake = bake_exported(
+                self.exported, self.knobs, preferred_device(), self._progress, previous
+            )
             if bake.knobs["samples"] > 0 or not any(m.baked for m in bake.meshes):
                 self.text = "writing"
                 write_bake(bake, self.path)
@@ -103,8 +123,8 @@ def running_job(scene) -> Job | None:
     return job if job is not None and not job.done.is_set() else None
 
 
-def start_job(context) -> Job:
-    """Check, export on this (main) thread, then start the worker."""
+def start_job(context, everything: bool = False) -> Job:
+    """Check, export on this (main) thread, then start the worker (``everything``: Job's)."""
     if not bpy.data.filepath:
         raise BTFError("save the .blend first: the light bake is written beside it")
     scene = context.scene
@@ -112,7 +132,7 @@ def start_job(context) -> Job:
     knobs = knobs_for(scene, props.spacing, props.view_bins, props.samples)
     path = default_path(bpy.path.abspath(bpy.data.filepath), scene.name)
     exported = export_for_bake(context.evaluated_depsgraph_get())
-    job = Job(exported, knobs, path)
+    job = Job(exported, knobs, path, everything)
     _jobs[scene.as_pointer()] = job
     job.thread.start()
     return job
@@ -130,11 +150,15 @@ def finish_job(operator, context, job: Job) -> set[str]:
     props = context.scene.btf_bake
     props.path = bpy.path.relpath(str(job.path))
     props.report = json.dumps(job.bake.report())
+    if job.note:
+        operator.report({"WARNING"}, f"Light bake: {job.note}")
     baked = [m for m in job.bake.meshes if m.baked]
+    kept = sum(m.kept for m in baked)
+    kept_text = f" ({kept} kept unchanged since the last bake)" if kept else ""
     stopped = " (cancelled early)" if job.cancel.is_set() else ""
     operator.report(
         {"INFO"},
-        f"Light bake: {len(baked)} of {len(job.bake.meshes)} objects baked, "
+        f"Light bake: {len(baked)} of {len(job.bake.meshes)} objects baked{kept_text}, "
         f"{job.bake.knobs['samples']} samples, {job.bake.seconds:.1f} s{stopped}",
     )
     return {"FINISHED"}
@@ -163,6 +187,13 @@ class BTF_OT_bake_light(BackgroundJobModal, Operator):
     bl_options = {"REGISTER"}
     status_label = "Light Bake"
 
+    rebake_all: BoolProperty(
+        name="Re-bake Everything",
+        description="Bake every object again; by default the objects whose last bake still "
+        "holds (they, the objects beside them, the lights and the World unchanged) keep it",
+        default=False,
+    )
+
     @classmethod
     def poll(cls, context) -> bool:
         scene = context.scene
@@ -170,7 +201,7 @@ class BTF_OT_bake_light(BackgroundJobModal, Operator):
 
     def _start(self, context) -> Job | None:
         try:
-            return start_job(context)
+            return start_job(context, self.rebake_all)
         except BTFError as exc:
             self.report({"ERROR"}, str(exc))
             return None
@@ -230,13 +261,19 @@ class BTF_PT_render_light_bake(Panel):
         col.prop(props, "samples")
         job = running_job(scene)
         if job is None:
-            layout.operator(BTF_OT_bake_light.bl_idname, icon="RENDER_STILL")
+            row = layout.row(align=True)
+            row.operator(BTF_OT_bake_light.bl_idname, icon="RENDER_STILL")
+            everything = row.operator(BTF_OT_bake_light.bl_idname, text="", icon="FILE_REFRESH")
+            everything.rebake_all = True
         else:
             row = layout.row()
             row.label(text=f"{job.fraction:.0%} {job.text}")
             row.operator(BTF_OT_bake_light_cancel.bl_idname, text="", icon="CANCEL")
         if props.path:
             layout.prop(props, "path")
+        status = last_status(scene)  # what the viewport or the headset last drew
+        if status:
+            layout.label(text=status, icon="ERROR" if "stale" in status else "LIGHT")
         for line in report_lines(scene):
             layout.label(text=line)
 

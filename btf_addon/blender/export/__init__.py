@@ -2,7 +2,8 @@
 
 One module per concern: ``depsgraph`` assembles the scene; ``meshes``, ``camera``, ``lights``,
 ``materials`` (with ``surface_shaders`` for materials without BTF settings) and ``world``
-convert one kind of Blender data each; ``cache`` keeps what a viewport may reuse and
+convert one kind of Blender data each, and ``light_bake`` reads the scene's light bake;
+``cache`` keeps what a viewport may reuse and
 ``updates`` reads the depsgraph's updates into what the cache must forget.
 """
 

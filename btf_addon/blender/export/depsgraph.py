@@ -14,6 +14,7 @@ from ...scene.lights import Light
 from ...scene.scene import Camera, Mesh, Scene
 from .cache import CachedEnvironment, CachedMesh, ExportCache, MeshKey
 from .camera import export_camera
+from .light_bake import scene_light_bake
 from .lights import export_light
 from .materials import MaterialTable, SlotMaterial
 from .meshes import GEOMETRY_OBJECT_TYPES, export_mesh
@@ -60,6 +61,7 @@ def export_scene(
         camera = export_camera(scene, width, height, depsgraph=depsgraph)
     out = Scene(meshes, materials.materials, camera, environment.environment, messages, lights)
     out.metres_per_unit = float(scene.unit_settings.scale_length)  # real-world sizes (mapping)
+    out.light_bake = scene_light_bake(scene, out.messages)  # the drawer plays it back
     return out
 
 

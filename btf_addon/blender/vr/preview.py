@@ -70,6 +70,7 @@ from ...gl.eye import HeadsetEye, HeadsetSettings, SharedBudget
 from ...render.frame_budget import DEFAULT_BUDGET_S
 from ...render.stereo import SKEW_TOLERANCE, EyeId, EyeIdentifier
 from ..export import ExportCache, changed_ids, export_scene
+from ..export.light_bake import remember_status
 from ..sync import render_settings, vr_settings
 from ..wiimote import overlay as wiimote_overlay
 from .display import DisplayTransform
@@ -262,11 +263,12 @@ class XRPreview:
                 drawer.draw_resolved(view, vr.exposure, not vr.show_world, draw_state)
             if vr.show_hud:
                 help_rows = wiimote_overlay.current_help() or ()
+                bake = [drawer.bake_status.line()] if drawer.bake_status is not None else []
                 eye.draw_hud(
                     clip_from_view,
                     head_offset_m(view_from_world, viewer),
                     self.gaze.material if self.gaze is not None else "",
-                    [f"{a}: {b}" for a, b in help_rows],
+                    [*bake, *(f"{a}: {b}" for a, b in help_rows)],
                     1.0,  # view space is metres whatever the base and navigation scales
                 )
             gpu.state.blend_set("NONE")
@@ -324,6 +326,7 @@ class XRPreview:
         try:
             scene = export_scene(depsgraph, *size, cache=self.cache, viewport=True)
             self.drawer = ProgressiveDrawer(self.device, scene, previous=self.drawer)
+            remember_status(depsgraph.scene, self.drawer)  # for the Light Bake panel
             self.error, self.messages = "", list(scene.messages)
         except BTFMaterialsError as exc:  # bad input or a shader that does not compile
             if self.drawer is not None:

@@ -294,6 +294,9 @@ class VIEW3D_PT_btf_xtal_bridge(Panel):
         if running is not None:
             box = layout.box()
             box.label(text=running.status_text().replace(" · Esc: stop", ""))
+            bake = running.bridge.status().bake if running.bridge is not None else ""
+            if bake:
+                box.label(text=bake, icon="LIGHT")
             for message in running.messages[-3:]:
                 box.label(text=message)
 
