@@ -46,20 +46,6 @@ GPU_SPEEDUP = (1895, 5927)
 FRAMES = 15
 
 
-def _grid(bake):
-    from btf_addon.scene.bake_points import BakeGrid
-
-    a, p = bake.arrays, len(bake.arrays["positions"])
-    keys = ("positions", "normals", "tri_cuts", "tri_first", "tri_points", "point_mesh")
-    return BakeGrid(
-        spacing=bake.knobs["spacing"],
-        footprint_tri=np.zeros((p, 1), np.int32),
-        footprint_bary=np.zeros((p, 1, 2), np.float32),
-        mesh_first_triangle=a["mesh_first_triangle"],
-        **{k: a[k] for k in keys},
-    )
-
-
 def _drawer_image(scene, lights, per_pass: int, film) -> np.ndarray:
     from btf_addon.gl.renderer import GLSLRenderer
 
@@ -72,7 +58,7 @@ def _drawer_image(scene, lights, per_pass: int, film) -> np.ndarray:
 
 
 def accuracy(name: str, scene, ctx, quick: bool) -> tuple[list[list], object]:
-    from btf_addon.cl.bake import BakedLight, BakeKnobs, bake_scene, render_baked
+    from btf_addon.cl.bake import BakeKnobs, bake_scene, baked_light, playback_grid, render_baked
     from btf_addon.cl.renderer import CLRenderer
 
     renderer = CLRenderer(scene, W, H, ctx)
@@ -82,8 +68,7 @@ def accuracy(name: str, scene, ctx, quick: bool) -> tuple[list[list], object]:
     t0 = time.perf_counter()
     bake = bake_scene(scene, ctx, knobs)
     seconds = time.perf_counter() - t0
-    grid = _grid(bake)
-    light = BakedLight(bake.arrays["ratio"], bake.view_bins, 0, 0.0)
+    grid, light = playback_grid(bake), baked_light(bake)
     masks = mesh_masks(renderer, grid, light)
     names = [m.name for m in scene.meshes]
     film = renderer.film

@@ -219,6 +219,24 @@ def render_baked(
     return image
 
 
+def playback_grid(bake: LightBake) -> BakeGrid:
+    """A bake's grid as ``render_baked`` reads it (the footprints, which only a bake reads,
+    do not travel with the file: one sample at corner 0 stands in)."""
+    a, points = bake.arrays, len(bake.arrays["positions"])
+    return BakeGrid(
+        spacing=float(bake.knobs.get("spacing", 0.0)),
+        footprint_tri=np.zeros((points, 1), np.int32),
+        footprint_bary=np.zeros((points, 1, 2), np.float32),
+        **{k: a[k] for k in GRID_ARRAYS},
+    )
+
+
+def baked_light(bake: LightBake) -> BakedLight:
+    """A bake's values as ``render_baked`` takes them."""
+    samples = int(bake.knobs.get("samples", 0))
+    return BakedLight(bake.arrays["ratio"], bake.view_bins, samples, bake.seconds)
+
+
 @dataclass(frozen=True)
 class BakeKnobs:
     """The bake's quality knobs (docs/accuracy.md "The light bake" measures each): bake points

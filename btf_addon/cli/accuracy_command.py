@@ -74,6 +74,12 @@ def add_parser(sub) -> None:
     p.add_argument("--reference-samples", type=_positive(int), metavar="N", help="default 1024")
     p.add_argument("--reference-bounces", type=_non_negative_int, metavar="N", help="default 8")
     p.add_argument("--device", type=int, metavar="N", help="OpenCL device index (`doctor`)")
+    p.add_argument(
+        "--bake",
+        action="store_true",
+        help="also the light bake's knobs (spacing, view directions, samples: one bake each, "
+        "minutes on a CPU) against the same reference: error, bake time, GPU memory",
+    )
     p.set_defaults(func=cmd_accuracy)
 
 
@@ -140,7 +146,8 @@ def cmd_accuracy(args) -> int:
     check_blend(args.blend)  # before Blender starts
     target = args.target if args.target is not None or args.budget is not None else 0.02
     bpy = import_bpy("the estimate")
-    from ..blender.accuracy.run import QuickSizes, prepare
+    from ..blender.accuracy.run import QuickSizes, prepare, run_bake_sweep
+    from ..blender.bake.run import knobs_for
     from .render_command import _engine_registered
 
     sizes = QuickSizes if args.quick else FullSizes
@@ -159,6 +166,8 @@ def cmd_accuracy(args) -> int:
             given(args.reference_bounces, sizes.reference_bounces),
             quick=args.quick,
         )
+        props = bpy.context.scene.btf_bake  # the bake's own knobs, as Bake Light for VR
+        bake_knobs = knobs_for(bpy.context.scene, props.spacing, props.view_bins, props.samples)
     pw, ph = estimate.preview_size
     fw, fh = estimate.full_size
     print(
@@ -178,6 +187,8 @@ def cmd_accuracy(args) -> int:
         if not estimate.interrupted:
             bar(1.0, "verifying the recommendation with more seeds")
             verify_recommendation(estimate, renderer, args.budget, target)
+        if args.bake and not estimate.interrupted:
+            run_bake_sweep(estimate, renderer, bake_knobs, on_progress=bar)
     except KeyboardInterrupt:
         estimate.interrupted = True
     finally:

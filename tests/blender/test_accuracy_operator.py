@@ -59,6 +59,25 @@ def test_the_quick_estimate_is_the_default_and_speaks_in_words(bpy_module, fresh
         assert jargon not in shown, (jargon, labels)
 
 
+def test_include_light_bake_measures_the_bakes_knobs(bpy_module, fresh_scene, tmp_path):
+    """The quick estimate with Include Light Bake: the bake's rungs from the scene's own Light
+    Bake for VR knobs (coarse here: 0.5 apart, 2 × 2 views, 16 samples), each scored, and the
+    panel lists them in words (the CLI's ``--bake`` runs the same sweep:
+    tests/cli/test_accuracy_command.py holds its numbers)."""
+    bpy = bpy_module
+    write_container(tmp_path / "lambert.btfm", LambertianBTF(0.7))
+    scene = sphere_on_ground(bpy, tmp_path, tmp_path / "lambert.btfm", (48, 32), 16, 8)
+    scene.btf_bake.spacing, scene.btf_bake.view_bins, scene.btf_bake.samples = 0.5, 2, 16
+    scene.btf_accuracy.include_bake = True
+    assert bpy.ops.btf.estimate_quality() == {"FINISHED"}
+    rows = json.loads(scene.btf_accuracy.report)["bake"]
+    assert [(r["knob"], r["view_bins"]) for r in rows][:2] == [("scene's own", 2), ("spacing", 2)]
+    assert len(rows) == 6 and all(r["objects"] == 2 and r["rmse"] < 0.2 for r in rows)
+    module = extension_submodule("btf_addon.blender.accuracy.operator")
+    labels = draw_panel(module.BTF_PT_render_accuracy, bpy.context).labels
+    assert "Bake 0.5 apart, 2×2 views, 16 samples: " in " ".join(labels)
+
+
 def test_estimate_stores_a_report_and_apply_recommended_sets_it(bpy_module, fresh_scene, tmp_path):
     bpy = bpy_module
     scene = _small_scene(bpy, tmp_path)

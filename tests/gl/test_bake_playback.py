@@ -139,19 +139,6 @@ def baked(cl_context):
     return scene, bake
 
 
-def _grid_of(bake: LightBake):
-    """The bake's grid as cl/bake.py ``render_baked`` reads it (footprints are not used)."""
-    from btf_addon.scene.bake_points import BakeGrid
-
-    a, p = bake.arrays, len(bake.arrays["positions"])
-    return BakeGrid(
-        spacing=bake.knobs["spacing"],
-        footprint_tri=np.zeros((p, 1), np.int32),
-        footprint_bary=np.zeros((p, 1, 2), np.float32),
-        **{k: a[k] for k in (*GRID_KEYS, "mesh_first_triangle")},
-    )
-
-
 def _drawn(scene: Scene, lights: int = 8, per_pass: int = 4) -> tuple[np.ndarray, object]:
     from btf_addon.gl.renderer import GLSLRenderer
 
@@ -165,15 +152,15 @@ def _drawn(scene: Scene, lights: int = 8, per_pass: int = 4) -> tuple[np.ndarray
 
 @pytest.mark.opencl
 def test_the_drawer_plays_the_bake_back_as_the_opencl_playback(gl_ctx, cl_context, baked):
-    from btf_addon.cl.bake import BakedLight, render_baked
+    from btf_addon.cl.bake import baked_light, playback_grid, render_baked
     from btf_addon.cl.renderer import CLRenderer
 
     scene, bake = baked
     image, status = _drawn(replace(scene, light_bake=bake))
     assert status == BakeStatus(played=("Ball", "Ground"))
     renderer = CLRenderer(scene, W, H, cl_context, film=None)
-    light = BakedLight(bake.arrays["ratio"], bake.view_bins, 16, 0.0)
-    expected = render_baked(renderer, _grid_of(bake), light, aa_samples=1)[..., :3]
+    grid, light = playback_grid(bake), baked_light(bake)
+    expected = render_baked(renderer, grid, light, aa_samples=1)[..., :3]
     # Pixel centres both: the rasteriser's barycentrics against the ray's, float32 both.
     # Measured: median 2e-5 relative, 99th percentile 1e-3 (pixels on a triangle's edge or
     # the silhouette, where the two pick different triangles or miss). A playback without the

@@ -19,18 +19,27 @@ import threading
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import (
+    BoolProperty,
+    EnumProperty,
+    FloatProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
 from bpy.types import Operator, Panel, PropertyGroup
 
 from ...core.errors import BTFError
+from ...render.accuracy.bake_sweep import row_words
 from ...render.accuracy.ladder import run, settings_from_json, verify_recommendation
 from ...render.accuracy.report import error_plot, to_json
 from ...render.settings import RenderSettings
 from ..addon import ENGINE_ID
 from ..background_job import BackgroundJobModal, redraw_properties
+from ..bake.run import knobs_for
 from ..preferences import preferred_device
 from ..sync import render_settings
-from .run import QuickSizes, prepare, set_up
+from .run import QuickSizes, prepare, run_bake_sweep, set_up
 
 log = logging.getLogger(__name__)
 
@@ -78,6 +87,12 @@ class BTFAccuracySettings(PropertyGroup):
         max=65536,
         description="Samples per pixel of the reference (the World sampled, 8 bounces)",
     )
+    include_bake: BoolProperty(
+        name="Include Light Bake",
+        default=False,
+        description="Also measure the light bake's knobs (spacing, view directions, samples: one "
+        "bake each, minutes on a CPU): error against the reference, bake time, GPU memory",
+    )
     report: StringProperty(
         name="Report",
         default="",
@@ -98,9 +113,10 @@ class Job:
     """One estimate on a worker thread. The thread touches no bpy data: it reads and writes
     only this object (progress, the estimate), which the modal timer copies into the UI."""
 
-    def __init__(self, estimate, rungs, renderer, budget, target):
+    def __init__(self, estimate, rungs, renderer, budget, target, bake_knobs=None):
         self.estimate, self.rungs, self.renderer = estimate, rungs, renderer
         self.budget, self.target = budget, target
+        self.bake_knobs = bake_knobs  # None: no light bake sweep
         self.cancel = threading.Event()
         self.fraction, self.text = 0.0, "starting"
         self.error: BaseException | None = None
@@ -128,6 +144,14 @@ class Job:
                     self.renderer,
                     self.budget,
                     self.target,
+                    cancelled=self.cancel.is_set,
+                )
+            if self.bake_knobs is not None and not self.cancel.is_set():
+                run_bake_sweep(
+                    self.estimate,
+                    self.renderer,
+                    self.bake_knobs,
+                    on_progress=self._progress,
                     cancelled=self.cancel.is_set,
                 )
         except Exception as exc:  # shown by the operator on the main thread
@@ -163,12 +187,15 @@ def start_job(context) -> Job:
         setup=False,  # on the worker: a first kernel compile must not freeze the UI
         quick=quick,
     )
+    bake = scene.btf_bake  # the bake's own knobs, as Bake Light for VR bakes
+    bake_knobs = knobs_for(scene, bake.spacing, bake.view_bins, bake.samples)
     job = Job(
         estimate,
         rungs,
         renderer,
         props.budget if props.budget > 0 else None,
         props.target if props.target > 0 else None,
+        bake_knobs if props.include_bake else None,
     )
     _jobs[scene.as_pointer()] = job
     job.thread.start()
@@ -339,6 +366,7 @@ class BTF_PT_render_accuracy(Panel):
         if props.thoroughness == "FULL":
             col.prop(props, "preview_size")
             col.prop(props, "reference_samples")
+        col.prop(props, "include_bake")
         job = running_job(scene)
         if job is not None:
             row = layout.row()
@@ -356,6 +384,11 @@ class BTF_PT_render_accuracy(Panel):
         preview = plot_preview(scene)
         if preview is not None:
             layout.template_icon(icon_value=preview.icon_id, scale=12.0)
+        if data.get("bake"):  # Include Light Bake: its settings, scene's own first
+            bake_box = layout.box()
+            bake_box.label(text="Light bake for VR (baked objects' pixels)", icon="LIGHT")
+            for row in data["bake"]:
+                bake_box.label(text=row_words(row))
         rec = data.get("recommendation")
         box = layout.box()
         if data.get("interrupted"):

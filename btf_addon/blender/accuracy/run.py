@@ -8,20 +8,27 @@ virtual lights from render/lighting.py, then F12's sequence of calls (cl/frame.p
 ``render_frame``). One renderer serves every rung: a rung's film and texel filter are set on it
 (a few small uploads), so the scene's BVH and tables are built and uploaded once. No GLSL
 fallback: without OpenCL there is no F12 to measure, so it is an error.
+
+With the light bake asked for (``run_bake_sweep``), the bake's knobs are measured after the
+ladder against the same reference (render/accuracy/bake_sweep.py).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 import bpy
 import numpy as np
 
+from ...cl.bake import BakeKnobs, bake_scene, baked_light, playback_grid, render_baked
 from ...cl.context import OpenCLUnavailableError, create_context
 from ...cl.frame import render_frame
 from ...cl.renderer import CLRenderer
 from ...core.errors import BTFError
+from ...render.accuracy.bake_sweep import BakeResult, BakeRung, bake_rungs, sweep
+from ...render.accuracy.bake_sweep import to_json as bake_json
 from ...render.accuracy.ladder import (
     KNOBS,
     Estimate,
@@ -179,3 +186,58 @@ def set_up(estimate: Estimate, renderer: LadderRenderer) -> None:
     renderer.setup()
     estimate.setup_seconds += renderer.setup_seconds
     estimate.device = renderer.device_name
+
+
+class BakeRunner:
+    """Bake and play back at the ladder's preview (render/accuracy/bake_sweep.py's ``BakeFn``):
+    the scene as the ladder exported it baked with the rung's knobs (cl/bake.py
+    ``bake_scene``, the analysis deciding what), then its converged playback through the
+    ladder's renderer (``render_baked`` with the film's subpixels, what the drawer converges
+    to: tests/gl/test_bake_playback.py)."""
+
+    def __init__(self, renderer: LadderRenderer, knobs: BakeKnobs):
+        self.renderer, self.knobs = renderer, knobs
+
+    def __call__(self, rung: BakeRung, progress: Callable[[float], bool]) -> BakeResult | None:
+        self.renderer.setup()
+        knobs = replace(
+            self.knobs, spacing=rung.spacing, view_bins=rung.view_bins, samples=rung.samples
+        )
+        stopped = False
+
+        def step(fraction: float) -> bool:
+            nonlocal stopped
+            stopped = stopped or not progress(fraction)
+            return not stopped
+
+        t0 = time.perf_counter()
+        bake = bake_scene(self.renderer.scene, self.renderer.ctx, knobs, step)
+        seconds = time.perf_counter() - t0
+        if stopped:
+            return None
+        grid, light = playback_grid(bake), baked_light(bake)
+        image = render_baked(self.renderer.renderer, grid, light)
+        baked = [i for i, m in enumerate(bake.meshes) if m.baked]
+        ones = np.zeros_like(light.ratio)
+        ones[np.isin(grid.point_mesh, baked)] = 1.0
+        seen = render_baked(
+            self.renderer.renderer, grid, replace(light, ratio=ones), times_response=False
+        )
+        return BakeResult(image, seen[..., 0] > 0.999, seconds, bake.nbytes, len(baked))
+
+
+def run_bake_sweep(
+    estimate: Estimate,
+    renderer: LadderRenderer,
+    knobs: BakeKnobs,
+    on_progress: Callable[[float, str], None] | None = None,
+    cancelled: Callable[[], bool] = lambda: False,
+) -> None:
+    """The light bake's knobs against the estimate's reference (rendered first by the
+    ladder's ``run``) into ``estimate.bake``; a cancel keeps the rungs finished."""
+    if estimate.reference_image is None:
+        return
+    rungs = bake_rungs(knobs.spacing, knobs.view_bins, knobs.samples)
+    runner = BakeRunner(renderer, knobs)
+    points = sweep(rungs, runner, estimate.reference_image, on_progress, cancelled)
+    estimate.bake = bake_json(points)

@@ -504,6 +504,8 @@ class Estimate:
     interrupted: bool = False
     device: str = ""
     scene: str = ""
+    #: The light bake's sweep (render/accuracy/bake_sweep.py ``to_json``'s rows; empty: none)
+    bake: list[dict] = field(default_factory=list)
 
     @property
     def preview_pixels(self) -> int:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ...core.fileio import atomic_write
 from ...core.formats.imageio import srgb8_from_linear, write_png
+from .bake_sweep import markdown as bake_markdown
 from .ladder import (
     Estimate,
     Role,
@@ -96,6 +97,7 @@ def to_json(
         ],
         "time_model": None,
         "recommendation": None,
+        "bake": list(estimate.bake),
     }
     if estimate.model is not None:
         out["time_model"] = {
@@ -372,6 +374,7 @@ def _markdown(data: dict[str, Any], heat: dict[str, tuple[str, str, str]]) -> st
                 f"{_s(c['ns_per_unit'])} | {c['unit']} |"
             )
         lines.append("")
+    lines += bake_markdown(data.get("bake", []), (pw, ph))
     if heat:
         lines += ["## Where the error sits", ""]
         for _kind, (label, rmse_png, ssim_png) in heat.items():
