@@ -104,7 +104,8 @@ class StereoCapture:
     """Both eyes of a capture. ``images``: {"left", "right"} → (H, W, 3) float32 linear, row 0
     at the top; ``eyes``: [left, right] (render/headsets.Eye); ``lights``: how many virtual
     lights each eye accumulated; ``settings``: the render settings they came from; ``files``:
-    the images written; ``messages``: the scene export's warnings, for the caller to show."""
+    the images written; ``messages``: the scene export's warnings, for the caller to show;
+    ``bake``: the light bake's status line (render/bake_playback.py; "" without a bake)."""
 
     profile: HeadsetProfile
     eyes: list[Eye]
@@ -115,6 +116,7 @@ class StereoCapture:
     far: float
     files: list[Path] = field(default_factory=list)
     messages: list[str] = field(default_factory=list)
+    bake: str = ""
 
     def side_by_side(self) -> np.ndarray:
         """(H, 2W, 3) float32: [left | right]."""
@@ -147,6 +149,7 @@ class StereoCapture:
                 "seed": self.settings.seed,
             },
             "film": _film_metadata(self.settings, self.lights),
+            "light_bake": self.bake or None,
             "files": [f.name for f in self.files],
         }
 
@@ -210,6 +213,7 @@ def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> Ste
     drawer = view = None
     try:
         drawer = ProgressiveDrawer(device, scene)
+        bake = drawer.bake_status.line() if drawer.bake_status is not None else ""
         images = {}
         film = settings.film()
         for eye in eyes:  # one eye's targets at a time: 3 RGBA32F images of the eye's size
@@ -226,7 +230,7 @@ def _draw_eyes(scene, settings, profile, eyes, lights, device, near, far) -> Ste
             drawer.release()
         if own_device:
             device.close()
-    return StereoCapture(profile, eyes, images, len(lights.pdf), settings, near, far)
+    return StereoCapture(profile, eyes, images, len(lights.pdf), settings, near, far, bake=bake)
 
 
 def output_paths(output: Path, layout: str) -> dict[str, Path]:

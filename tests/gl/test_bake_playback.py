@@ -251,6 +251,27 @@ def test_a_drawer_from_the_previous_keeps_the_bakes_uploads(gl_ctx, baked):
     third.release()
 
 
+@pytest.mark.opencl
+def test_stereo_captures_play_the_bake_back_and_record_it(gl_ctx, baked):
+    from btf_addon.gl.moderngl_device import ModernGLDevice
+    from btf_addon.gl.stereo_capture import capture_profile, render_stereo
+    from btf_addon.render.headsets import profile
+    from btf_addon.render.settings import RenderSettings
+
+    scene, bake = baked
+    prof = capture_profile(profile("simulated"), 48)
+    settings = RenderSettings(lights_total=4)
+    device = ModernGLDevice(gl_ctx)
+    baked_capture = render_stereo(replace(scene, light_bake=bake), settings, prof, device)
+    live_capture = render_stereo(scene, settings, prof, device)
+    recorded = baked_capture.metadata("per-eye")["light_bake"]
+    assert recorded == "Light bake: baked light on Ball, Ground"
+    assert live_capture.metadata("per-eye")["light_bake"] is None
+    for eye in ("left", "right"):
+        difference = np.abs(baked_capture.images[eye] - live_capture.images[eye])
+        assert difference.mean() > 0.05 * live_capture.images[eye].mean()  # the bake's light
+
+
 # --- which meshes play back (no GL) -------------------------------------------------------------
 
 

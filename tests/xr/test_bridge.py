@@ -410,6 +410,39 @@ def test_the_hud_floats_below_the_view_in_both_eyes(xr_runtime, rng):
         assert rows.max() < h // 2, "the HUD reached the top half"
 
 
+@pytest.mark.opencl
+def test_a_light_bake_is_played_back_and_named_in_the_status(xr_runtime, rng, gl_ctx, cl_context):
+    """Issue 34: the bridge draws the scene's light bake through the one drawer: each eye
+    equals an independent render of its pose with the bake (within sRGB 8-bit quantisation),
+    which differs from the unbaked one; the status (and so the HUD and the CLI) names what
+    plays back."""
+    from dataclasses import replace
+
+    from btf_addon.cl.bake import BakeKnobs, bake_scene
+    from btf_addon.xr.bridge import run_bridge
+
+    scene = small_scene(rng)
+    scene.meshes = [
+        replace(m, name=n) for m, n in zip(scene.meshes, ("Ball", "Floor"), strict=True)
+    ]
+    bake = bake_scene(scene, cl_context, BakeKnobs(spacing=0.5, view_bins=2, samples=16))
+    baked = replace(scene, light_bake=bake)
+    script(xr_runtime)
+    status = run_bridge(
+        baked,
+        RenderSettings(use_antialiasing=False),  # the reference is drawn at pixel centres
+        settings(converge=True, budget_s=10.0),
+        frames=6,
+    )
+    assert status.bake == "Light bake: baked light on Ball, Floor"
+    for view in xr_runtime.captured()[-1].views:
+        ours = independent_render(gl_ctx, baked, view.pose, view.fov, 8)
+        diff = np.abs(encoded(view.image[..., :3]) - encoded(ours))
+        assert diff.max() <= SRGB_TOLERANCE, diff.max()
+        live = independent_render(gl_ctx, scene, view.pose, view.fov, 8)
+        assert np.abs(encoded(live) - encoded(ours)).max() > 20 * SRGB_TOLERANCE
+
+
 @pytest.mark.parametrize(("scale", "size"), [(0.5, (24, 18)), (10.0, (192, 144))])
 def test_resolution_scale_is_clamped_to_the_runtimes_maximum(xr_runtime, rng, scale, size):
     """The test runtime recommends 48×36 and allows 4× that (192×144)."""
