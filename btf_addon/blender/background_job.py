@@ -5,9 +5,13 @@ Estimate Quality vs Time (accuracy_operator.py) and Compress BTF (compress_opera
 A job is anything with ``fraction`` (0–1), ``text``, and the ``threading.Event``s ``cancel``
 and ``done``. The operator defines ``_start(context) -> job | None`` (None: it reported why),
 ``_end(context, job) -> {'FINISHED'} | {'CANCELLED'}``, ``status_label`` and ``execute`` (from
-a script, or without a window as in background Blender: the whole job before returning)."""
+a script, or without a window as in background Blender: the whole job before returning).
+``PanelJobModal`` writes those four for a job whose panel shows its progress and result (Estimate
+Quality vs Time, Bake Light for VR): the operator gives only how to begin and how to finish."""
 
 from __future__ import annotations
+
+from ..core.errors import BTFError
 
 TICK_SECONDS = 0.25  # how often progress is shown; also how late a finished job is noticed
 
@@ -59,3 +63,34 @@ class BackgroundJobModal:
         wm.progress_end()
         context.workspace.status_text_set(None)
         return self._end(context, job)
+
+
+class PanelJobModal(BackgroundJobModal):
+    """A job started from a Properties panel that shows its progress and result. The operator
+    defines ``_begin(context) -> job`` (raising BTFError, with what to do, where it cannot
+    start) and ``_finish(context, job) -> {'FINISHED'} | {'CANCELLED'}`` (on the main thread:
+    the job's result into the scene and the operator's report)."""
+
+    def _start(self, context):
+        try:
+            return self._begin(context)
+        except BTFError as exc:
+            self.report({"ERROR"}, str(exc))
+            return None
+
+    def execute(self, context) -> set[str]:
+        """From a script or background Blender: the whole job before returning."""
+        job = self._start(context)
+        if job is None:
+            return {"CANCELLED"}
+        job.done.wait()
+        job.thread.join()
+        return self._finish(context, job)
+
+    def _tick(self, context) -> None:
+        redraw_properties(context)  # the panel's progress
+
+    def _end(self, context, job) -> set[str]:
+        result = self._finish(context, job)
+        redraw_properties(context)  # and its result
+        return result

@@ -29,13 +29,12 @@ from bpy.props import (
 )
 from bpy.types import Operator, Panel, PropertyGroup
 
-from ...core.errors import BTFError
 from ...render.accuracy.bake_sweep import row_words
 from ...render.accuracy.ladder import run, settings_from_json, verify_recommendation
 from ...render.accuracy.report import error_plot, to_json
 from ...render.settings import RenderSettings
 from ..addon import ENGINE_ID
-from ..background_job import BackgroundJobModal, redraw_properties
+from ..background_job import PanelJobModal
 from ..bake.run import knobs_for
 from ..preferences import preferred_device
 from ..sync import render_settings
@@ -223,7 +222,7 @@ def finish_job(operator, context, job: Job) -> set[str]:
     return {"FINISHED"}
 
 
-class BTF_OT_estimate_quality(BackgroundJobModal, Operator):
+class BTF_OT_estimate_quality(PanelJobModal, Operator):
     """Measure error against render time for this scene's quality settings (virtual lights,
     samples, bounces) at a reduced size, and recommend settings for a time budget or a
     target error"""
@@ -238,29 +237,11 @@ class BTF_OT_estimate_quality(BackgroundJobModal, Operator):
         scene = context.scene
         return scene is not None and scene.render.engine == ENGINE_ID and not running_job(scene)
 
-    def _start(self, context) -> Job | None:
-        try:
-            return start_job(context)
-        except BTFError as exc:
-            self.report({"ERROR"}, str(exc))
-            return None
+    def _begin(self, context) -> Job:
+        return start_job(context)
 
-    def execute(self, context) -> set[str]:
-        """From a script: the whole estimate before returning."""
-        job = self._start(context)
-        if job is None:
-            return {"CANCELLED"}
-        job.done.wait()
-        job.thread.join()
+    def _finish(self, context, job: Job) -> set[str]:
         return finish_job(self, context, job)
-
-    def _tick(self, context) -> None:
-        redraw_properties(context)  # the panel's progress and, at the end, its plot
-
-    def _end(self, context, job: Job) -> set[str]:
-        result = finish_job(self, context, job)
-        redraw_properties(context)
-        return result
 
 
 class BTF_OT_estimate_quality_cancel(Operator):

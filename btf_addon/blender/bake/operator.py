@@ -28,7 +28,7 @@ from ...cl.bake import BakeKnobs
 from ...core.errors import BTFError
 from .. import compat
 from ..addon import ENGINE_ID
-from ..background_job import BackgroundJobModal, redraw_properties
+from ..background_job import PanelJobModal
 from ..export.light_bake import last_status
 from ..preferences import preferred_device
 from .run import (
@@ -177,7 +177,7 @@ def report_lines(scene) -> list[str]:
     return [MeshBake(**m).line() for m in data["meshes"]]
 
 
-class BTF_OT_bake_light(BackgroundJobModal, Operator):
+class BTF_OT_bake_light(PanelJobModal, Operator):
     """Precompute shadows and light between objects for the VR preview with the final
     render's path tracer, for the objects that need it, and write the bake beside the .blend"""
 
@@ -199,29 +199,11 @@ class BTF_OT_bake_light(BackgroundJobModal, Operator):
         scene = context.scene
         return scene is not None and scene.render.engine == ENGINE_ID and not running_job(scene)
 
-    def _start(self, context) -> Job | None:
-        try:
-            return start_job(context, self.rebake_all)
-        except BTFError as exc:
-            self.report({"ERROR"}, str(exc))
-            return None
+    def _begin(self, context) -> Job:
+        return start_job(context, self.rebake_all)
 
-    def execute(self, context) -> set[str]:
-        """From a script: the whole bake before returning."""
-        job = self._start(context)
-        if job is None:
-            return {"CANCELLED"}
-        job.done.wait()
-        job.thread.join()
+    def _finish(self, context, job: Job) -> set[str]:
         return finish_job(self, context, job)
-
-    def _tick(self, context) -> None:
-        redraw_properties(context)
-
-    def _end(self, context, job: Job) -> set[str]:
-        result = finish_job(self, context, job)
-        redraw_properties(context)
-        return result
 
 
 class BTF_OT_bake_light_cancel(Operator):
