@@ -1,4 +1,6 @@
-"""BTF sources behave like image paths: farm-safe relative paths, File › External Data.
+"""BTF sources behave like image paths: farm-safe relative paths, File › External Data. A
+scene's light bake (``scene.btf_bake.path``, blender/bake/) is external data of the same kind
+and gets the same treatment, save remap and the four operators alike (``external_paths``).
 
 Blender's own Make Paths Relative, Pack Resources and Report Missing Files are C operators that
 know only Blender's file types, with no Python hook; so this module gives BTF sources
@@ -47,6 +49,51 @@ def btf_materials():
     ]
 
 
+class ExternalPath(NamedTuple):
+    """One path to external data: ``holder.attribute`` (a material's ``btf.source``, a
+    scene's ``btf_bake.path``), ``label`` names its owner in reports and ``key`` is unique."""
+
+    holder: object
+    attribute: str
+    label: str
+    key: tuple[str, str]
+
+    @property
+    def value(self) -> str:
+        return getattr(self.holder, self.attribute)
+
+    @value.setter
+    def value(self, new: str) -> None:
+        setattr(self.holder, self.attribute, new)
+
+
+def external_paths() -> list[ExternalPath]:
+    """Every local BTF source, then every local scene's light bake."""
+    paths = [
+        ExternalPath(m.btf, "source", f"material {m.name!r}", ("material", m.name))
+        for m in btf_materials()
+    ]
+    for scene in bpy.data.scenes:
+        bake = getattr(scene, "btf_bake", None)
+        if scene.library is None and bake is not None and bake.path:
+            paths.append(
+                ExternalPath(
+                    bake, "path", f"scene {scene.name!r} light bake", ("scene", scene.name)
+                )
+            )
+    return paths
+
+
+def _holder(key: tuple[str, str]):
+    """The holder of a path by its key, None where its owner is gone."""
+    kind, name = key
+    if kind == "material":
+        material = bpy.data.materials.get(name)
+        return material.btf if material is not None else None
+    scene = bpy.data.scenes.get(name)
+    return scene.btf_bake if scene is not None else None
+
+
 def absolute(source: str, blend_path: str) -> str:
     """``source`` as an absolute, normalised path; a "//" path is taken relative to the folder
     of ``blend_path`` (unchanged when there is none: nothing to resolve it against)."""
@@ -80,34 +127,35 @@ def remapped(source: str, old_blend: str, new_blend: str, make_relative: bool) -
     return source
 
 
-# Save Copy writes a file elsewhere but leaves this session's file where it was: the sources
-# remapped for the copy are restored after it is written.
-_before_save: dict[str, str] = {}
+# Save Copy writes a file elsewhere but leaves this session's file where it was: the paths
+# remapped for the copy are restored after it is written (by ExternalPath.key).
+_before_save: dict[tuple[str, str], str] = {}
 
 
 @persistent
 def remap_on_save(filepath: str, *_args) -> None:
-    """save_pre: remap BTF sources for the file about to be written at ``filepath``."""
+    """save_pre: remap BTF sources and light bakes for the file about to be written at
+    ``filepath``."""
     _before_save.clear()
     if not filepath:
         return  # the startup file
     make_relative = bpy.context.preferences.filepaths.use_relative_paths
-    for material in btf_materials():
-        source = material.btf.source
-        new = remapped(source, bpy.data.filepath, filepath, make_relative)
-        if new != source:
-            _before_save[material.name] = source
-            material.btf.source = new
+    for path in external_paths():
+        old = path.value
+        new = remapped(old, bpy.data.filepath, filepath, make_relative)
+        if new != old:
+            _before_save[path.key] = old
+            path.value = new
 
 
 @persistent
 def restore_after_copy(filepath: str, *_args) -> None:
-    """save_post: after Save Copy (the session's file did not move), put the sources back."""
+    """save_post: after Save Copy (the session's file did not move), put the paths back."""
     if filepath and os.path.normpath(bpy.data.filepath) != os.path.normpath(filepath):
-        for name, source in _before_save.items():
-            material = bpy.data.materials.get(name)
-            if material is not None:
-                material.btf.source = source
+        for key, old in _before_save.items():
+            holder = _holder(key)
+            if holder is not None:
+                setattr(holder, "source" if key[0] == "material" else "path", old)
     _before_save.clear()
 
 
@@ -230,15 +278,16 @@ def _require_saved(operator) -> bool:
 
 
 def _remap_sources(operator, made: str, remap) -> set[str]:
-    """Every BTF source through ``remap(source, blend path)``; reports how many changed."""
+    """Every BTF source and light bake through ``remap(path, blend path)``; reports how many
+    changed."""
     if not _require_saved(operator):
         return {"CANCELLED"}
     changed = 0
-    for material in btf_materials():
-        new = remap(material.btf.source, bpy.data.filepath)
-        if new != material.btf.source:
-            material.btf.source, changed = new, changed + 1
-    operator.report({"INFO"}, f"{changed} BTF source(s) made {made}")
+    for path in external_paths():
+        new = remap(path.value, bpy.data.filepath)
+        if new != path.value:
+            path.value, changed = new, changed + 1
+    operator.report({"INFO"}, f"{changed} BTF path(s) made {made}")
     return {"FINISHED"}
 
 
@@ -281,13 +330,19 @@ class BTF_OT_report_missing(Operator):
             if problem:
                 missing += 1
                 self.report({"WARNING"}, f"material {material.name!r}: {problem}")
-        self.report({"INFO"}, f"{missing} BTF source(s) missing")
+        bakes = [p for p in external_paths() if p.key[0] == "scene"]
+        for path in bakes:  # not fatal (objects are lit live), but a farm should know
+            if not os.path.isfile(absolute(path.value, bpy.data.filepath)):
+                missing += 1
+                self.report({"WARNING"}, f"{path.label}: {path.value} is missing; bake again")
+        self.report({"INFO"}, f"{missing} BTF source(s) or light bake(s) missing")
         return {"FINISHED"}
 
 
 class BTF_OT_pack_beside(Operator):
-    """Copy every BTF source into a btf_sources folder beside the .blend and point the
-    materials there (relative): the .blend and that folder render on any machine"""
+    """Copy every BTF source and light bake into a btf_sources folder beside the .blend and
+    point the materials and scenes there (relative): the .blend and that folder render on any
+    machine"""
 
     bl_idname = "btf.pack_beside"
     bl_label = "Pack BTF Sources beside the .blend"
@@ -298,18 +353,18 @@ class BTF_OT_pack_beside(Operator):
             return {"CANCELLED"}
         folder = Path(bpy.data.filepath).parent / PACK_FOLDER
         copied: dict[str, str] = {}  # absolute source → its copy, so shared sources copy once
-        for material in btf_materials():
-            source = absolute(material.btf.source, bpy.data.filepath)
+        for path in external_paths():
+            source = absolute(path.value, bpy.data.filepath)
             if source not in copied:
                 if not os.path.exists(source):
-                    self.report({"WARNING"}, f"material {material.name!r}: {source} is missing")
+                    self.report({"WARNING"}, f"{path.label}: {source} is missing")
                     continue
                 target = folder / Path(source).name
                 if Path(source) != target:
                     pack_copy(Path(source), target)
                 copied[source] = str(target)
-            material.btf.source = relative(copied[source], bpy.data.filepath)
-        self.report({"INFO"}, f"{len(copied)} BTF source(s) packed into {folder}")
+            path.value = relative(copied[source], bpy.data.filepath)
+        self.report({"INFO"}, f"{len(copied)} BTF source(s) and light bake(s) packed into {folder}")
         return {"FINISHED"}
 
 

@@ -85,6 +85,39 @@ def test_external_data_operators(bpy_module, fresh_scene, tmp_path, capfd):
     assert "menu_external_data" in menu
 
 
+def test_a_light_bake_is_external_data_like_a_btf_source(bpy_module, fresh_scene, tmp_path):
+    """Issue 34: the scene's bake path (written relative by Bake Light for VR) is remapped on
+    Save As, made absolute and relative, reported when missing and packed beside the .blend,
+    as BTF sources are (the file's bytes stand in for a bake: only its path is handled)."""
+    bpy = bpy_module
+    project = tmp_path / "project"
+    project.mkdir()
+    bake = project / "scene.Scene.light_bake.npz"
+    bake.write_bytes(b"a bake's bytes")
+    bpy.ops.wm.save_as_mainfile(filepath=str(project / "scene.blend"))
+    scene = bpy.context.scene
+    scene.btf_bake.path = "//scene.Scene.light_bake.npz"
+    (tmp_path / "other").mkdir()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "other" / "moved.blend"))
+    assert scene.btf_bake.path == "//../project/scene.Scene.light_bake.npz"
+    assert os.path.normpath(bpy.path.abspath(scene.btf_bake.path)) == str(bake)
+    assert bpy.ops.btf.make_paths_absolute() == {"FINISHED"}
+    assert scene.btf_bake.path == str(bake)
+    assert bpy.ops.btf.make_paths_relative() == {"FINISHED"}
+    assert scene.btf_bake.path == "//../project/scene.Scene.light_bake.npz"
+    paths = extension_submodule("btf_addon.blender.paths")
+    assert [p.label for p in paths.external_paths()] == ["scene 'Scene' light bake"]
+    assert bpy.ops.btf.pack_beside() == {"FINISHED"}
+    assert scene.btf_bake.path == "//btf_sources/scene.Scene.light_bake.npz"
+    assert (tmp_path / "other" / "btf_sources" / bake.name).read_bytes() == bake.read_bytes()
+    # Save Copy elsewhere: the copy's path reaches the same bake, this session keeps its own.
+    (tmp_path / "copy").mkdir()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "copy" / "c.blend"), copy=True)
+    assert scene.btf_bake.path == "//btf_sources/scene.Scene.light_bake.npz"
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "copy" / "c.blend"))
+    assert bpy.context.scene.btf_bake.path == "//../other/btf_sources/scene.Scene.light_bake.npz"
+
+
 def small_render_scene(bpy, tmp_path, source: str):
     scene = bpy.context.scene
     scene.render.engine = "BTF_RENDER"
