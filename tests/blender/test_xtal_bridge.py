@@ -12,7 +12,7 @@ import time
 from types import SimpleNamespace
 
 import pytest
-from blender_helpers import extension_submodule, sphere_on_ground
+from blender_helpers import draw_panel, extension_submodule, sphere_on_ground
 
 
 class StandInBridge:
@@ -191,6 +191,15 @@ def test_the_operator_drives_a_real_openxr_runtime(bpy_module, bridge_scene, tmp
         assert controller.tick() is False
         assert controller.error is None, controller.error
         assert "BTF test runtime" in controller.status_text()
+        # The panel while it runs: its status, and the light bake's line (none baked here).
+        operator_class = module.BTF_OT_xtal_bridge
+        operator_class._running = controller
+        try:
+            labels = draw_panel(module.VIEW3D_PT_btf_xtal_bridge, bpy.context).labels
+        finally:
+            operator_class._running = None
+        assert any("BTF test runtime" in label for label in labels), labels
+        assert controller.bake_text() == ""
     finally:
         controller.stop()
     frames = read_capture(capture)

@@ -189,6 +189,10 @@ class BridgeController:
             f"{lights} · {s.eye_size[0]}×{s.eye_size[1]} per eye ({s.values_from}) · Esc: stop"
         )
 
+    def bake_text(self) -> str:
+        """The light bake's status line (what plays back, what is stale); "" without one."""
+        return self.bridge.status.bake if self.bridge is not None else ""
+
     def stop(self, timeout: float = 10.0) -> None:
         """Ask the runtime to end the session and wait for the thread (its context is its own)."""
         if self.bridge is not None and self.thread is not None and self.thread.is_alive():
@@ -294,9 +298,8 @@ class VIEW3D_PT_btf_xtal_bridge(Panel):
         if running is not None:
             box = layout.box()
             box.label(text=running.status_text().replace(" · Esc: stop", ""))
-            bake = running.bridge.status().bake if running.bridge is not None else ""
-            if bake:
-                box.label(text=bake, icon="LIGHT")
+            if running.bake_text():
+                box.label(text=running.bake_text(), icon="LIGHT")
             for message in running.messages[-3:]:
                 box.label(text=message)
 
