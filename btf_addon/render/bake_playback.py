@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.codecs.packed import TABLE_WIDTH, layout_stream
-from ..scene.bake_analysis import current_neighbours
+from ..scene.bake_analysis import bake_needs, neighbours_by_name
 from ..scene.lights import pack_lights
 from .light_bake import LightBake, mesh_digest, scene_digest
 
@@ -29,12 +29,14 @@ STATUS_NAMES = 4
 @dataclass(frozen=True)
 class BakeStatus:
     """``played``: meshes drawn with baked light; ``stale``: baked meshes drawn with live light
-    because the scene changed since; ``refused``: why nothing is played back (empty: no
-    reason)."""
+    because the scene changed since; ``missing``: meshes the bake never held that need one now
+    (something was moved or added beside them); ``refused``: why nothing is played back
+    (empty: no reason)."""
 
     played: tuple[str, ...] = ()
     stale: tuple[str, ...] = ()
     refused: str = ""
+    missing: tuple[str, ...] = ()
 
     def line(self) -> str:
         """One line for the panel, the HUD and the bridge's status."""
@@ -43,6 +45,9 @@ class BakeStatus:
         parts = [f"baked light on {_names(self.played)}"] if self.played else []
         if self.stale:
             parts.append(f"stale, live light on {_names(self.stale)}: bake again")
+        if self.missing:
+            verb = "needs" if len(self.missing) == 1 else "need"
+            parts.append(f"{_names(self.missing)} {verb} a bake now: bake again")
         return "Light bake: " + ("; ".join(parts) if parts else "nothing baked in this scene")
 
 
@@ -140,8 +145,10 @@ def plan(
     by_name = {m.name: d for m, d in zip(scene.meshes, digests, strict=True)}
     recorded = {m.name: m.digest for m in bake.meshes}
     # the analysis only where something moved, was added or went: it says who is beside whom now
-    neighbours = current_neighbours(scene) if by_name != recorded else None
+    needs = bake_needs(scene) if by_name != recorded else None
+    neighbours = neighbours_by_name(needs) if needs is not None else None
     stale = set(bake.stale(by_name, current_scene_digest, neighbours=neighbours))
+    missing = bake.missing([n.name for n in needs if n.anything]) if needs is not None else []
     first = bake.arrays["mesh_first_triangle"]
     records: dict[str, list[int]] = {}  # bake meshes by name, in order
     for index, record in enumerate(bake.meshes):
@@ -162,4 +169,5 @@ def plan(
             continue
         first_triangle[i] = int(first[b])
         played.append(mesh.name)
-    return BakePlayback(BakeStatus(tuple(played), tuple(stale_names)), first_triangle)
+    status = BakeStatus(tuple(played), tuple(stale_names), missing=tuple(missing))
+    return BakePlayback(status, first_triangle)

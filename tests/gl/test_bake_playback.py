@@ -315,12 +315,13 @@ def test_an_added_mesh_stales_only_the_bakes_it_stands_beside(baked):
     below.world_from_object = np.eye(4)
     below.world_from_object[:3, 3] = (0.0, 0.0, -3.0)
     result = _plan(replace(scene, meshes=[*scene.meshes, below]), bake)
-    assert result.status == BakeStatus(played=("Ground",), stale=("Ball",))
+    # and the cube itself, never baked, needs one now (beside the ball): the status says so
+    assert result.status == BakeStatus(played=("Ground",), stale=("Ball",), missing=("Below",))
     above = replace(below, name="Above")
     above.world_from_object = np.eye(4)
     above.world_from_object[:3, 3] = (1.0, 0.0, 0.25)  # on the ground beside the ball
     result = _plan(replace(scene, meshes=[*scene.meshes, above]), bake)
-    assert result.status == BakeStatus(stale=("Ball", "Ground"))
+    assert result.status == BakeStatus(stale=("Ball", "Ground"), missing=("Above",))
 
 
 def test_status_lines_name_what_plays_back_and_what_is_stale():
@@ -331,3 +332,7 @@ def test_status_lines_name_what_plays_back_and_what_is_stale():
         "Light bake: baked light on A; stale, live light on B, C, D, E and 2 more: bake again"
     )
     assert BakeStatus(refused="too big").line() == "Light bake not used: too big"
+    assert BakeStatus(played=("A",), missing=("Cube",)).line() == (
+        "Light bake: baked light on A; Cube needs a bake now: bake again"
+    )
+    assert "B, C need a bake now" in BakeStatus(missing=("B", "C")).line()
