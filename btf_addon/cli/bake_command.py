@@ -76,13 +76,13 @@ def cmd_bake(args) -> int:
     bpy = import_bpy("the bake")
     from ..blender.bake.run import (
         bake_exported,
-        default_path,
         export_for_bake,
         kept_summary,
         knobs_for,
         last_bake,
         write_bake,
     )
+    from ..render.light_bake import default_path
     from .render_command import _engine_registered
 
     with _engine_registered(bpy):

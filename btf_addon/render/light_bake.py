@@ -59,6 +59,13 @@ GRID_ARRAYS = (
 )
 
 
+def default_path(blend_path: str | Path, scene_name: str) -> Path:
+    """Beside the .blend: ``<file>.<scene>.light_bake.npz`` (one bake per scene of a file), where
+    the operator and the CLI write a bake and where a scene without a bake path finds one."""
+    blend = Path(blend_path)
+    return blend.with_name(f"{blend.stem}.{scene_name}{SUFFIX}")
+
+
 class LightBakeError(BTFError):
     """A bake file that cannot be read: damaged, foreign or of another version."""
 

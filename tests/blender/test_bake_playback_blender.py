@@ -16,6 +16,7 @@ from blender_helpers import (
     sphere_on_ground,
     stand_in_engine,
 )
+from helpers import run_cli
 
 from btf_addon.core.codecs.analytic import LambertianBTF
 from btf_addon.core.formats.container import write_container
@@ -108,6 +109,25 @@ def test_the_viewport_plays_back_the_operators_bake(bpy_module, fresh_scene, tmp
     assert "stale, live light on " in status and "bake again" in status, status
     assert engine.btf_viewport.drawer.bake_status.played == ()
     assert np.abs(moved - drawn).mean() > 1e-3
+
+
+def test_a_bake_from_the_command_line_is_found_beside_the_blend(bpy_module, fresh_scene, tmp_path):
+    """A farm bakes with ``python -m btf_addon bake``, which writes beside the .blend and does
+    not touch the file: the scene (no bake path) finds that bake at its default place."""
+    bpy = bpy_module
+    export = extension_submodule("btf_addon.blender.export")
+    write_container(tmp_path / "lambert.btfm", LambertianBTF(0.7))
+    sphere_on_ground(bpy, tmp_path, tmp_path / "lambert.btfm", (W, H), 16, 8)
+    blend = tmp_path / "farm.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    assert export.export_scene(depsgraph, W, H, viewport=True).light_bake is None  # none yet
+    args = ("--spacing", "0.5", "--view-bins", "2", "--samples", "16")
+    run_cli("bake", "--blend", blend, *args)
+    assert bpy.context.scene.btf_bake.path == ""  # the file was not changed
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get(), W, H, viewport=True)
+    assert exported.light_bake is not None
+    assert [m.baked for m in exported.light_bake.meshes] == [True, True]
 
 
 def test_a_missing_bake_lights_everything_live_and_says_so(bpy_module, fresh_scene, tmp_path):

@@ -26,19 +26,13 @@ from bpy.types import Operator, Panel, PropertyGroup
 
 from ...cl.bake import BakeKnobs
 from ...core.errors import BTFError
+from ...render.light_bake import default_path
 from .. import compat
 from ..addon import ENGINE_ID
 from ..background_job import PanelJobModal
 from ..export.light_bake import last_status
 from ..preferences import preferred_device
-from .run import (
-    bake_exported,
-    default_path,
-    export_for_bake,
-    knobs_for,
-    last_bake,
-    write_bake,
-)
+from .run import bake_exported, export_for_bake, knobs_for, last_bake, write_bake
 
 log = logging.getLogger(__name__)
 _DEFAULTS = BakeKnobs()

@@ -21,16 +21,10 @@ from pathlib import Path
 from ...cl.bake import BakeKnobs, bake_scene
 from ...cl.context import create_context
 from ...core.fileio import atomic_write
-from ...render.light_bake import SUFFIX, LightBake, LightBakeError, load
+from ...render.light_bake import LightBake, LightBakeError, load
 from ...scene.scene import Scene
 from ..export import export_scene
 from ..sync import frame_size, render_settings
-
-
-def default_path(blend_path: str | Path, scene_name: str) -> Path:
-    """Beside the .blend: ``<file>.<scene>.light_bake.npz`` (one bake per scene of a file)."""
-    blend = Path(blend_path)
-    return blend.with_name(f"{blend.stem}.{scene_name}{SUFFIX}")
 
 
 def report_path(bake_path: str | Path) -> Path:

@@ -1,8 +1,9 @@
-"""The scene's light bake (``scene.btf_bake.path``, relative to the .blend like BTF sources)
-→ the ``LightBake`` the drawer plays back (``Scene.light_bake``; render/bake_playback.py says
-which meshes still match it). Read once per version of the file: a viewport re-export after an
-edit costs a ``stat``, not a load. A missing or unreadable bake is a message (the drawer then
-lights everything live), never an error that stops drawing.
+"""The scene's light bake (``scene.btf_bake.path``, relative to the .blend like BTF sources; a
+scene without one finds a bake at the default place beside the .blend, where the CLI's
+``bake`` writes it) → the ``LightBake`` the drawer plays back (``Scene.light_bake``;
+render/bake_playback.py says which meshes still match it). Read once per version of the file:
+a viewport re-export after an edit costs a ``stat``, not a load. A missing or unreadable bake
+is a message (the drawer then lights everything live), never an error that stops drawing.
 
 The drawers' last word on it (``remember_status``) is kept per scene for the Light Bake panel:
 the panel cannot afford to export and digest the scene on every redraw.
@@ -14,7 +15,7 @@ from pathlib import Path
 
 import bpy
 
-from ...render.light_bake import LightBake, LightBakeError, load
+from ...render.light_bake import LightBake, LightBakeError, default_path, load
 
 #: Per absolute path: (its mtime and size when read, the bake). One bake per scene of a file,
 #: so the dictionary is bounded by the scenes ever drawn in this session.
@@ -27,8 +28,11 @@ def scene_light_bake(scene, messages: list[str]) -> LightBake | None:
     in ``messages``)."""
     props = getattr(scene, "btf_bake", None)
     relative = props.path if props is not None else ""
-    if not relative:
-        return None
+    if not relative:  # a bake the command line wrote beside the file, if there is one
+        beside = default_path(bpy.data.filepath, scene.name) if bpy.data.filepath else None
+        if beside is None or not beside.is_file():
+            return None
+        relative = str(beside)
     path = Path(bpy.path.abspath(relative))
     try:
         stat = path.stat()
