@@ -195,7 +195,8 @@ SURFACE_SHADER = ShaderInterface(
         ("FLOAT", "v_block"),
         ("VEC2", "v_bake_bary"),
     ),
-    # exact: a triangle number past 2^24 / a few ulps would round to its neighbour's
+    # flat: the provoking vertex's value as it is; interpolating a constant rounds it by a
+    # few ulps, which for a triangle number in the millions is a whole triangle
     flat_varyings=(("FLOAT", "v_bake_tri"),),
     libraries=(*BTF_LIBRARIES, "btf_mapping_lib.glsl", "scene_lights_lib.glsl", "bake_lib.glsl"),
     vertex_file="surface_vert.glsl",
