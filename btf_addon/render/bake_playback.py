@@ -59,9 +59,9 @@ def _names(names: tuple[str, ...]) -> str:
 
 @dataclass(frozen=True, eq=False)
 class BakePlayback:
-    """``first_triangle``: per scene mesh index that plays back, its first triangle in the
-    bake (its triangle k is the bake's first + k); ``index`` and ``values``: the textures'
-    arrays (``bake_textures``), None where nothing plays back."""
+    """``status``: what the drawer says of the bake; ``first_triangle``: per scene mesh index
+    that plays back, its first triangle in the bake (its triangle k is the bake's first + k).
+    The textures' arrays are ``bake_textures``'s, the same for every drawer of one bake."""
 
     status: BakeStatus
     first_triangle: dict[int, int] = field(default_factory=dict)
