@@ -77,7 +77,7 @@ def render(engine, depsgraph) -> None:
     region = render_region(scene.render, w, h)
     transparent = scene.render.film_transparent
     try:
-        exported = export_scene(depsgraph, w, h)
+        exported = export_scene(depsgraph, w, h, light_bake=False)
     except BTFError as exc:
         engine.report({"ERROR"}, str(exc))
         return

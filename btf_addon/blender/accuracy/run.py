@@ -166,7 +166,7 @@ def prepare(
     full = frame_size(scene.render)  # as F12 sizes the frame
     preview = preview_size(full, longest)
     t0 = time.perf_counter()
-    exported = export_scene(depsgraph, *preview)
+    exported = export_scene(depsgraph, *preview, light_bake=False)
     export_seconds = time.perf_counter() - t0
     renderer = LadderRenderer(
         exported, *preview, device_index, base, transparent=scene.render.film_transparent

@@ -48,7 +48,7 @@ def knobs_for(scene, spacing: float, view_bins: int, samples: int) -> BakeKnobs:
 
 def export_for_bake(depsgraph) -> Scene:
     """The evaluated scene as F12 exports it (main thread)."""
-    return export_scene(depsgraph, *frame_size(depsgraph.scene.render))
+    return export_scene(depsgraph, *frame_size(depsgraph.scene.render), light_bake=False)
 
 
 def last_bake(path: str | Path, everything: bool = False) -> tuple[LightBake | None, str]:

@@ -22,11 +22,18 @@ from .world import environment_from_world
 
 
 def export_scene(
-    depsgraph, width: int, height: int, cache: ExportCache | None = None, viewport: bool = False
+    depsgraph,
+    width: int,
+    height: int,
+    cache: ExportCache | None = None,
+    viewport: bool = False,
+    light_bake: bool = True,
 ) -> Scene:
     """The evaluated scene as plain arrays. ``cache``: reuse (and fill) an earlier export's
     meshes and environment. ``viewport``: the view comes from the 3D view's own matrices, so a
-    scene without a camera is fine (a placeholder camera is exported)."""
+    scene without a camera is fine (a placeholder camera is exported). ``light_bake``: read the
+    scene's light bake for the drawer (False where the path tracer renders: F12, the accuracy
+    report's ladder, a bake; a missing bake is then no message of theirs)."""
     scene = depsgraph.scene
     cache = cache if cache is not None else ExportCache()
     messages: list[str] = []
@@ -61,7 +68,8 @@ def export_scene(
         camera = export_camera(scene, width, height, depsgraph=depsgraph)
     out = Scene(meshes, materials.materials, camera, environment.environment, messages, lights)
     out.metres_per_unit = float(scene.unit_settings.scale_length)  # real-world sizes (mapping)
-    out.light_bake = scene_light_bake(scene, out.messages)  # the drawer plays it back
+    if light_bake:
+        out.light_bake = scene_light_bake(scene, out.messages)  # the drawer plays it back
     return out
 
 
