@@ -7,13 +7,43 @@ and ``done``. The operator defines ``_start(context) -> job | None`` (None: it r
 ``_end(context, job) -> {'FINISHED'} | {'CANCELLED'}``, ``status_label`` and ``execute`` (from
 a script, or without a window as in background Blender: the whole job before returning).
 ``PanelJobModal`` writes those four for a job whose panel shows its progress and result (Estimate
-Quality vs Time, Bake Light for VR): the operator gives only how to begin and how to finish."""
+Quality vs Time, Bake Light for VR): the operator gives only how to begin and how to finish;
+``running_in``, ``stop_all`` and ``progress_row`` are what such a panel and its module share
+(a job per scene, stopped at unregister, shown with a cancel button)."""
 
 from __future__ import annotations
 
 from ..core.errors import BTFError
 
 TICK_SECONDS = 0.25  # how often progress is shown; also how late a finished job is noticed
+
+
+def running_in(jobs: dict, scene):
+    """The job of ``jobs`` (an operator's running jobs by the scene's session pointer) that
+    ``scene`` is running, None where it runs none or its job has ended."""
+    job = jobs.get(scene.as_pointer())
+    return job if job is not None and not job.done.is_set() else None
+
+
+def stop_all(jobs: dict) -> None:
+    """Cancel and wait for every job of ``jobs`` (unregister: a worker must not outlive the
+    add-on's classes)."""
+    for job in list(jobs.values()):
+        job.cancel.set()
+        job.thread.join()
+    jobs.clear()
+
+
+def progress_row(layout, job, cancel_idname: str) -> None:
+    """A panel's row for a running job: its progress bar (a label before Blender 4.0) and the
+    cancel button."""
+    row = layout.row()
+    text = f"{job.fraction:.0%} {job.text}"
+    if hasattr(row, "progress"):  # Blender 4.0+
+        row.progress(factor=job.fraction, type="BAR", text=text)
+    else:
+        row.label(text=text)
+    row.operator(cancel_idname, text="", icon="CANCEL")
 
 
 def redraw_properties(context) -> None:

@@ -34,7 +34,7 @@ from ...render.accuracy.ladder import run, settings_from_json, verify_recommenda
 from ...render.accuracy.report import error_plot, to_json
 from ...render.settings import RenderSettings
 from ..addon import ENGINE_ID
-from ..background_job import PanelJobModal
+from ..background_job import PanelJobModal, progress_row, running_in, stop_all
 from ..bake.run import knobs_for
 from ..preferences import preferred_device
 from ..sync import render_settings
@@ -168,8 +168,7 @@ _jobs: dict[int, Job] = {}
 
 
 def running_job(scene) -> Job | None:
-    job = _jobs.get(scene.as_pointer())
-    return job if job is not None and not job.done.is_set() else None
+    return running_in(_jobs, scene)
 
 
 def start_job(context) -> Job:
@@ -186,15 +185,16 @@ def start_job(context) -> Job:
         setup=False,  # on the worker: a first kernel compile must not freeze the UI
         quick=quick,
     )
-    bake = scene.btf_bake  # the bake's own knobs, as Bake Light for VR bakes
-    bake_knobs = knobs_for(scene, bake.spacing, bake.view_bins, bake.samples)
+    bake, bake_knobs = scene.btf_bake, None  # the bake's own knobs, as Bake Light for VR's
+    if props.include_bake:
+        bake_knobs = knobs_for(scene, bake.spacing, bake.view_bins, bake.samples)
     job = Job(
         estimate,
         rungs,
         renderer,
         props.budget if props.budget > 0 else None,
         props.target if props.target > 0 else None,
-        bake_knobs if props.include_bake else None,
+        bake_knobs,
     )
     _jobs[scene.as_pointer()] = job
     job.thread.start()
@@ -350,13 +350,7 @@ class BTF_PT_render_accuracy(Panel):
         col.prop(props, "include_bake")
         job = running_job(scene)
         if job is not None:
-            row = layout.row()
-            text = f"{job.fraction:.0%} {job.text}"
-            if hasattr(row, "progress"):  # Blender 4.0+
-                row.progress(factor=job.fraction, type="BAR", text=text)
-            else:
-                row.label(text=text)
-            row.operator("btf.estimate_quality_cancel", text="", icon="CANCEL")
+            progress_row(layout, job, "btf.estimate_quality_cancel")
             return
         layout.operator("btf.estimate_quality", icon="TIME")
         if not props.report:
@@ -407,10 +401,7 @@ def unregister() -> None:
     global _previews
     import bpy.utils.previews
 
-    for job in list(_jobs.values()):  # a worker must not outlive the add-on's classes
-        job.cancel.set()
-        job.thread.join()
-    _jobs.clear()
+    stop_all(_jobs)
     if _previews is not None:
         bpy.utils.previews.remove(_previews)
         _previews = None

@@ -29,7 +29,7 @@ from ...core.errors import BTFError
 from ...render.light_bake import default_path
 from .. import compat
 from ..addon import ENGINE_ID
-from ..background_job import PanelJobModal
+from ..background_job import PanelJobModal, progress_row, running_in, stop_all
 from ..export.light_bake import last_status
 from ..preferences import preferred_device
 from .run import bake_exported, export_for_bake, knobs_for, last_bake, write_bake
@@ -113,8 +113,7 @@ _jobs: dict[int, Job] = {}
 
 
 def running_job(scene) -> Job | None:
-    job = _jobs.get(scene.as_pointer())
-    return job if job is not None and not job.done.is_set() else None
+    return running_in(_jobs, scene)
 
 
 def start_job(context, everything: bool = False) -> Job:
@@ -242,9 +241,7 @@ class BTF_PT_render_light_bake(Panel):
             everything = row.operator(BTF_OT_bake_light.bl_idname, text="", icon="FILE_REFRESH")
             everything.rebake_all = True
         else:
-            row = layout.row()
-            row.label(text=f"{job.fraction:.0%} {job.text}")
-            row.operator(BTF_OT_bake_light_cancel.bl_idname, text="", icon="CANCEL")
+            progress_row(layout, job, BTF_OT_bake_light_cancel.bl_idname)
         if props.path:
             layout.prop(props, "path")
         status = last_status(scene)  # what the viewport or the headset last drew
@@ -269,10 +266,7 @@ def register() -> None:
 
 
 def unregister() -> None:
-    for job in list(_jobs.values()):  # a worker must not outlive the add-on's classes
-        job.cancel.set()
-        job.thread.join()
-    _jobs.clear()
+    stop_all(_jobs)
     bpy.types.TOPBAR_MT_render.remove(_render_menu)
     del bpy.types.Scene.btf_bake
     _unregister()
