@@ -252,3 +252,39 @@ def errors_on_and_off(renderer, reference, flag: str) -> dict[bool, float]:
         images = [renderer.render_sampled(64, seed=s)[..., :3] for s in (1, 2, 3)]
         errors[on] = float(np.mean([relative_rmse(image, reference) for image in images]))
     return errors
+
+
+def render_program_with(cl_context, test_kernels: str):
+    """The final render's real program (kernels/render_direct.cl with its includes, built with
+    the renderer's defines for a scene with shadows and an environment texture: program_defines
+    passes BAKE_BIN_MARGIN_PERMILLE too) with ``test_kernels`` appended, which call its inline
+    functions."""
+    import pyopencl as cl
+
+    from btf_addon.cl.programs import KERNELS_DIR, build_defines, expand_includes
+    from btf_addon.cl.renderer import program_defines
+    from btf_addon.scene.analysis import SceneFeatures
+
+    features = SceneFeatures(shadows=True, environment_texture=True)
+    text = expand_includes(KERNELS_DIR / "render_direct.cl") + "\n" + test_kernels
+    options = [f"-D{k}={v}" for k, v in sorted(build_defines(program_defines(features)).items())]
+    return cl.Program(cl_context.context, text).build(options)
+
+
+def run_kernel(cl_context, kernel, n: int, inputs, outputs) -> None:
+    """Launch ``kernel`` over ``n`` work-items: numpy ``inputs`` become read-only buffers
+    (scalars pass as they are), then one write-only buffer per array of ``outputs``, which are
+    filled from them."""
+    import pyopencl as cl
+
+    mf = cl.mem_flags
+    ctx, queue = cl_context.context, cl_context.queue
+    args = []
+    for value in inputs:
+        if isinstance(value, np.ndarray):
+            value = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=value)
+        args.append(value)
+    out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes) for out in outputs]
+    kernel(queue, (n,), None, *args, *out_bufs)
+    for out, buf in zip(outputs, out_bufs, strict=True):
+        cl.enqueue_copy(queue, out, buf)

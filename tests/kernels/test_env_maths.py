@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import render_program_with, run_kernel
 
 from btf_addon.core.sampling.envmap import Environment
 
@@ -39,33 +40,7 @@ __kernel void pdf_test(__global const float *dirs, __global const float *row_pdf
 
 @pytest.fixture(scope="module")
 def program(cl_context):
-    import pyopencl as cl
-
-    from btf_addon.cl.programs import KERNELS_DIR, build_defines, expand_includes
-    from btf_addon.cl.renderer import program_defines
-    from btf_addon.scene.analysis import SceneFeatures
-
-    # the real program's source with the test kernels appended, built with the real defines
-    features = SceneFeatures(shadows=True, environment_texture=True)
-    text = expand_includes(KERNELS_DIR / "render_direct.cl") + "\n" + TEST_KERNELS
-    options = [f"-D{k}={v}" for k, v in sorted(build_defines(program_defines(features)).items())]
-    return cl.Program(cl_context.context, text).build(options)
-
-
-def _run(cl_context, kernel, n, inputs, outputs):
-    import pyopencl as cl
-
-    mf = cl.mem_flags
-    ctx, queue = cl_context.context, cl_context.queue
-    args = []
-    for value in inputs:
-        if isinstance(value, np.ndarray):
-            value = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=value)
-        args.append(value)
-    out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes) for out in outputs]
-    kernel(queue, (n,), None, *args, *out_bufs)
-    for out, buf in zip(outputs, out_bufs, strict=True):
-        cl.enqueue_copy(queue, out, buf)
+    return render_program_with(cl_context, TEST_KERNELS)
 
 
 def test_btf_atan2_matches_libm_over_the_whole_circle(cl_context, program):
@@ -78,7 +53,7 @@ def test_btf_atan2_matches_libm_over_the_whole_circle(cl_context, program):
     y = np.concatenate([y, [0.0, -0.0, 0.0, -0.0, 1.0, -1.0, 0.0, -0.0]]).astype(np.float32)
     x = np.concatenate([x, [-1.0, -1.0, 0.0, 0.0, 0.0, 0.0, -0.0, -0.0]]).astype(np.float32)
     out = np.empty(len(y), np.float32)
-    _run(cl_context, cl.Kernel(program, "atan2_test"), len(y), [y, x], [out])
+    run_kernel(cl_context, cl.Kernel(program, "atan2_test"), len(y), [y, x], [out])
     expected = np.arctan2(y.astype(np.float64), x.astype(np.float64))
     # the polynomial's 1.1e-7 rad, plus float32 rounding of a result up to π (1.2e-7) and of
     # π − a near ±π: 4e-7 rad, a 4e-8 of a turn (an environment pixel is 1/width of one).
@@ -115,7 +90,7 @@ def test_direction_angles_match_libm_at_poles_and_seams(cl_context, program):
     scale = np.repeat([1.0, 0.999, 3.0], len(unit) // 3 + 1)[: len(unit), None]
     dirs = (unit * scale).astype(np.float32)
     out = np.empty((len(dirs), 2), np.float32)
-    _run(cl_context, cl.Kernel(program, "angles_test"), len(dirs), [dirs], [out])
+    run_kernel(cl_context, cl.Kernel(program, "angles_test"), len(dirs), [dirs], [out])
     d = dirs.astype(np.float64)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     theta = np.degrees(np.arccos(np.clip(d[:, 2], -1.0, 1.0)))
@@ -143,7 +118,7 @@ def test_env_pdf_and_pixel_match_the_environment(cl_context, program, rotation):
     n = len(dirs)
     pdf, pixel = np.empty(n, np.float32), np.empty(n, np.int32)
     tables = [a.astype(np.float32).ravel() for a in (env.row_pdf, env.col_pdf)]
-    _run(
+    run_kernel(
         cl_context,
         cl.Kernel(program, "pdf_test"),
         n,

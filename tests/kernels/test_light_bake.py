@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from helpers import render_program_with, run_kernel
 
 from btf_addon.core.codecs.analytic import LambertianBTF
 from btf_addon.core.codecs.dense import DenseBTF
@@ -53,34 +54,7 @@ SKY = np.array([0.8, 1.0, 1.2])  # the constant World's radiance
 
 @pytest.fixture(scope="module")
 def program(cl_context):
-    import pyopencl as cl
-
-    from btf_addon.cl.programs import KERNELS_DIR, build_defines, expand_includes
-    from btf_addon.cl.renderer import program_defines
-    from btf_addon.scene.analysis import SceneFeatures
-
-    # the real program's source with the test kernels appended, built with the renderer's
-    # defines (program_defines passes BAKE_BIN_MARGIN_PERMILLE, bake_points.BIN_MARGIN)
-    features = SceneFeatures(shadows=True, environment_texture=True)
-    text = expand_includes(KERNELS_DIR / "render_direct.cl") + "\n" + TEST_KERNELS
-    options = [f"-D{k}={v}" for k, v in sorted(build_defines(program_defines(features)).items())]
-    return cl.Program(cl_context.context, text).build(options)
-
-
-def _run(cl_context, kernel, n, inputs, outputs):
-    import pyopencl as cl
-
-    mf = cl.mem_flags
-    ctx, queue = cl_context.context, cl_context.queue
-    args = []
-    for value in inputs:
-        if isinstance(value, np.ndarray):
-            value = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=value)
-        args.append(value)
-    out_bufs = [cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes) for out in outputs]
-    kernel(queue, (n,), None, *args, *out_bufs)
-    for out, buf in zip(outputs, out_bufs, strict=True):
-        cl.enqueue_copy(queue, out, buf)
+    return render_program_with(cl_context, TEST_KERNELS)
 
 
 def _hemisphere(rng, n: int) -> np.ndarray:
@@ -172,7 +146,7 @@ def test_bake_lookup_matches_numpy_playback(cl_context, program, lookup_grid, vi
     rows = np.zeros((grid.point_count, bins, 4), np.float32)
     rows[..., :3] = values
     out = np.empty((n, 3), np.float32)
-    _run(
+    run_kernel(
         cl_context,
         cl.Kernel(program, "lookup_test"),
         n,
@@ -204,7 +178,7 @@ def test_bake_square_matches_hemisphere_to_square(cl_context, program):
     rng = np.random.default_rng(7)
     wo = np.concatenate([_edge_views(rng), _hemisphere(rng, 20000)]).astype(np.float32)
     out = np.empty((len(wo), 2), np.float32)
-    _run(cl_context, cl.Kernel(program, "square_test"), len(wo), [wo.ravel()], [out])
+    run_kernel(cl_context, cl.Kernel(program, "square_test"), len(wo), [wo.ravel()], [out])
     # The reference with bin_weights' rule for views at or below the horizon (z = GRAZING·|xy|;
     # none at all: the normal), which hemisphere_to_square itself leaves to its callers.
     w = wo.astype(np.float64)
