@@ -71,13 +71,6 @@ class _Part:
     half: np.ndarray
 
 
-def _corners(mesh) -> np.ndarray:
-    try:
-        return mesh.world_space_corners()
-    except np.linalg.LinAlgError:  # a zero scale: no area to light
-        return np.zeros((0, 12), dtype=np.float32)
-
-
 def _part(corners: np.ndarray, centre: np.ndarray, scale: float) -> _Part | None:
     p = corners[:, :3].astype(np.float64).reshape(-1, 3, 3)
     n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
@@ -138,7 +131,7 @@ def _names(indices, names, most: int = 3) -> str:
 
 def bake_needs(scene: Scene) -> list[BakeNeeds]:
     """One BakeNeeds per mesh of ``scene``, in ``scene.meshes`` order."""
-    corners = [_corners(m) for m in scene.meshes]
+    corners = [m.world_space_corners() for m in scene.meshes]
     names = [m.name or f"mesh {k}" for k, m in enumerate(scene.meshes)]
     everything = np.concatenate([c[:, :3] for c in corners] + [np.zeros((0, 3), np.float32)])
     low, high = (everything.min(0), everything.max(0)) if len(everything) else (np.zeros(3),) * 2

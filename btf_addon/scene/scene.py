@@ -106,12 +106,25 @@ class Mesh:
         """(corners, 12) float32 rows: position, normal, uv, tangent and bitangent sign, in
         world space, for drawing. Triangles with any non-finite value are dropped."""
         m = np.asarray(self.world_from_object, dtype=np.float64)
-        p = self.positions @ m[:3, :3].T + m[:3, 3]
-        n = self.normals @ np.linalg.inv(m[:3, :3])  # (M^-1)^T applied to row vectors
+        a = m[:3, :3]
+        p = self.positions @ a.T + m[:3, 3]
+        finite = bool(np.all(np.isfinite(a)))
+        det = np.linalg.det(a) if finite else np.nan
+        if not finite:  # every triangle is dropped below
+            n = np.full(self.normals.shape, np.nan)
+        elif det != 0.0:
+            n = self.normals @ np.linalg.inv(a)  # (M^-1)^T applied to row vectors
+        else:
+            # A scale of 0 (Blender allows it) has no inverse: taken as the limit of a tiny
+            # scale, its zero singular values raised to 1e-9 of the largest (a flattened
+            # object's normals turn to its plane's, as they would at scale 1e-9).
+            u, sv, vt = np.linalg.svd(a)
+            sv = np.maximum(sv, max(sv.max() * 1e-9, 1e-30)) if sv.max() > 0 else np.ones(3)
+            n = self.normals @ (vt.T / sv) @ u.T
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-        t = self.tangents[:, :3] @ m[:3, :3].T
+        t = self.tangents[:, :3] @ a.T
         # A mirroring transform (negative determinant) flips the bitangent's handedness.
-        sign = self.tangents[:, 3:4] * (np.sign(np.linalg.det(m[:3, :3])) or 1.0)
+        sign = self.tangents[:, 3:4] * (np.sign(det) or 1.0)
         with np.errstate(invalid="ignore"):
             data = np.hstack([p, n, self.uvs, t, sign]).astype(np.float32)
         ok = np.all(np.isfinite(data), axis=1).reshape(-1, 3).all(axis=1)
