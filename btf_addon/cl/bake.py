@@ -351,7 +351,11 @@ def bake_scene(
     (``LightBake.stale`` with the current analysis' neighbours) and has as many points there
     as the grid gives it now. Only the others go to the device; their MeshBake says why
     (``rebaked``), a kept one says ``kept``. A mesh that needs no bake now is not baked,
-    whether the last bake had it or not (its values there are not carried over)."""
+    whether the last bake had it or not (its values there are not carried over).
+
+    ``cl_context``: the OpenCL context, or a function that makes one, called only when
+    something is traced: a re-bake with nothing stale opens no device (a machine without a
+    working OpenCL driver can still re-save an unchanged bake)."""
     t0 = time.perf_counter()
     needs = bake_needs(scene)
     corners = [m.world_space_corners() for m in scene.meshes]
@@ -380,7 +384,8 @@ def bake_scene(
     # re-bake finds the knobs differ and bakes everything again.
     samples = int(previous.knobs["samples"]) if reuse.kept else 0
     if len(chosen):
-        renderer = CLRenderer(scene, 1, 1, cl_context, film=None)
+        context = cl_context() if callable(cl_context) else cl_context
+        renderer = CLRenderer(scene, 1, 1, context, film=None)
         renderer.clamp_indirect = knobs.clamp_indirect
         baked = bake_light(
             renderer,

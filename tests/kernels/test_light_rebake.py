@@ -111,7 +111,9 @@ def test_the_scene_needs_what_the_module_says(first):
 
 def test_moving_a_far_mesh_traces_only_it_and_equals_a_full_bake(first, cl_context, launched):
     moved = _scene(cube_at=(FAR[0], 0.3, FAR[2]))
-    again = _bake(moved, cl_context, previous=first)
+    opened = []  # the context as a factory (the CLI's and the operator's way): called to trace
+    again = _bake(moved, lambda: opened.append(1) or cl_context, previous=first)
+    assert opened == [1]
     (ids,) = launched  # one bake_light call, for the cube's points only
     cube_index = [m.name for m in again.meshes].index("Cube")
     np.testing.assert_array_equal(ids, np.flatnonzero(again.arrays["point_mesh"] == cube_index))
@@ -156,7 +158,7 @@ def test_an_unchanged_scene_is_kept_whole_without_any_device_work(first, monkeyp
 
     monkeypatch.setattr(bake, "CLRenderer", refuse)
     monkeypatch.setattr(bake, "bake_light", refuse)
-    again = _bake(_scene(), None, previous=first)  # no OpenCL context either
+    again = _bake(_scene(), refuse, previous=first)  # no OpenCL context opened either
     assert [m.kept for m in again.meshes] == [True, True, True]
     assert again.knobs == first.knobs and again.scene_digest == first.scene_digest
     for name, array in first.arrays.items():

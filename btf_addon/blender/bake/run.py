@@ -70,8 +70,9 @@ def bake_exported(
     previous: LightBake | None = None,
 ) -> LightBake:
     """The exported scene baked on the chosen device (any thread); with ``previous``, only
-    what is stale or missing there is traced (cl/bake.py ``bake_scene``)."""
-    return bake_scene(exported, create_context(device_index), knobs, progress, previous)
+    what is stale or missing there is traced (cl/bake.py ``bake_scene``), and the device is
+    opened only then."""
+    return bake_scene(exported, lambda: create_context(device_index), knobs, progress, previous)
 
 
 def kept_summary(bake: LightBake) -> str:
