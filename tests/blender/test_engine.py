@@ -109,7 +109,7 @@ def test_f12_glsl_fallback_draws_blender_lights(bpy_module, fresh_scene, tmp_pat
     rendered, reference = f12_and_reference(bpy, scene, tmp_path, engine="glsl")
     tolerance = 1e-3 * reference.max()
     if not np.abs(rendered - reference).max() < tolerance:
-        # Seen once in CI (Blender 5.0; never in 100+ renders of it here): the F12 image
+        # Seen once in CI (Blender 5.0; never in ~80 renders of it here): the F12 image
         # differed in a patch of pixels and matched everywhere else. Say where, for the issue
         # it deserves, then render again: a second miss is a failure.
         rows, cols = np.nonzero(np.abs(rendered - reference).max(axis=-1) >= tolerance)
