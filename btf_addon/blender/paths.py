@@ -128,8 +128,9 @@ def remapped(source: str, old_blend: str, new_blend: str, make_relative: bool) -
 
 
 # Save Copy writes a file elsewhere but leaves this session's file where it was: the paths
-# remapped for the copy are restored after it is written (by ExternalPath.key).
-_before_save: dict[tuple[str, str], str] = {}
+# remapped for the copy are restored after it is written (by ExternalPath.key: the attribute
+# and the value it had).
+_before_save: dict[tuple[str, str], tuple[str, str]] = {}
 
 
 @persistent
@@ -144,7 +145,7 @@ def remap_on_save(filepath: str, *_args) -> None:
         old = path.value
         new = remapped(old, bpy.data.filepath, filepath, make_relative)
         if new != old:
-            _before_save[path.key] = old
+            _before_save[path.key] = (path.attribute, old)
             path.value = new
 
 
@@ -152,10 +153,10 @@ def remap_on_save(filepath: str, *_args) -> None:
 def restore_after_copy(filepath: str, *_args) -> None:
     """save_post: after Save Copy (the session's file did not move), put the paths back."""
     if filepath and os.path.normpath(bpy.data.filepath) != os.path.normpath(filepath):
-        for key, old in _before_save.items():
+        for key, (attribute, old) in _before_save.items():
             holder = _holder(key)
             if holder is not None:
-                setattr(holder, "source" if key[0] == "material" else "path", old)
+                setattr(holder, attribute, old)
     _before_save.clear()
 
 
