@@ -298,8 +298,9 @@ class VIEW3D_PT_btf_xtal_bridge(Panel):
         if running is not None:
             box = layout.box()
             box.label(text=running.status_text().replace(" · Esc: stop", ""))
-            if running.bake_text():
-                box.label(text=running.bake_text(), icon="LIGHT")
+            bake = running.bake_text()
+            if bake:
+                box.label(text=bake, icon="LIGHT")
             for message in running.messages[-3:]:
                 box.label(text=message)
 
