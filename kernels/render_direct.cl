@@ -534,6 +534,7 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
   }
 }
 #include "btf_bake.h"
+#include "btf_lobe.h"
 
 /* --- The light bake (btf_addon/cl/bake.py; docs/accuracy.md "The light bake") ---------------
  * Per bake point and view bin: F12's own paths (path_light) from points of the bake point's
@@ -541,7 +542,10 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
  * bin's direction, and beside them the material's response to one light along the normal at
  * the same points. Their ratio is the light per unit of that response: playback multiplies it
  * by the response at the pixel's own texel, decoded live, so the bake carries the light
- * (centimetres coarse) and the live decode the material's detail (0.1 mm). Sums are written
+ * (centimetres coarse) and the live decode the material's detail (0.1 mm). An analytic
+ * material's response is its unshadowed light, the same paths through an empty scene without
+ * bounces: playback multiplies the ratio (shadows and interreflection) by that light computed
+ * per pixel (include/btf_lobe.h), so a glossy lobe follows the view exactly. Sums are written
  * (xyz; w: the samples counted), the host adds launches. Points [point0, point_end) index the
  * footprints given (a subset of the grid's points: a re-bake traces only the stale meshes');
  * point_ids gives each one's index in the whole grid, which seeds its paths, so a point gets the
@@ -565,7 +569,9 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
                          __global const float *window_row_pdf, __global const float *window_cdf,
                          const int window_block, const int first_sample, const int samples,
                          const uint seed, const int max_bounces, const float indirect_limit,
-                         __global float *radiance, __global float *response)
+                         __global const float *open_bounds, __global const int *open_links,
+                         __global const float *open_corners, __global float *radiance,
+                         __global float *response)
 {
   int local_point = get_global_id(0), bin = get_global_id(1);
   int p = point0 + local_point;
@@ -580,6 +586,11 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
                   sun_cdf, sun_pixels, sun_probability, sun_count, sun_share,
                   window_row_pdf, window_cdf, window_block,
                   max_bounces, indirect_limit};                   /* the path's limits */
+  /* The same World with nothing in it and no bounces: an analytic point's unshadowed light
+   * (open_*: a BVH of one degenerate triangle, cl/bake.py _open_bvh). */
+  PathScene open = ps;
+  open.bounds = open_bounds, open.links = open_links, open.corners = open_corners;
+  open.max_bounces = 0;
   float3 wo = vload3(0, bin_dirs + 4 * bin);
   /* unsigned: defined past 2^31, where an int's overflow is not (the same value below it) */
   uint point_seed = pcg_hash(((uint)point_ids[p] * (uint)bin_count + (uint)bin) ^ pcg_hash(seed));
@@ -609,10 +620,16 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
                                     tri_material, material_params, eps);
     sp.wo = wo;
     Sampler smp = {point_seed, index, 0u, pcg_hash(point_seed + index)};
+    Sampler open_smp = smp; /* the same random numbers: the ratio's noise mostly cancels */
     path_light(&ps, sp, &smp, &light);
     __global const float *I = ints + material_offsets[2 * sp.material];
     __global const float *F = floats + material_offsets[2 * sp.material + 1];
-    unit += bake_response(I, F, &sp);
+    if (bake_over_unshadowed(I)) {
+      path_light(&open, sp, &open_smp, &unit);
+    }
+    else {
+      unit += bake_response(I, F, &sp);
+    }
     counted++;
   }
   int out = local_point * bin_count + bin;
@@ -638,7 +655,11 @@ __kernel void render_baked(const int width, const int height, const int row0,
                            __global const float *baked, const int view_bins,
                            __global const float *subpixels, const int aa_samples,
                            __global const float *filter_table, const int transparent,
-                           const int times_response, __global float *combined)
+                           const int times_response, __global const float *pyramid,
+                           const int pyramid_levels, __global const float *scene_lights,
+                           const int scene_light_count, __global const float *open_bounds,
+                           __global const int *open_links, __global const float *open_corners,
+                           const int lobe_samples, __global float *combined)
 {
   int x, yr;
   launch_pixel(&x, &yr);
@@ -675,8 +696,15 @@ __kernel void render_baked(const int width, const int height, const int row0,
     }
     __global const float *I = ints + material_offsets[2 * sp.material];
     __global const float *F = floats + material_offsets[2 * sp.material + 1];
-    /* times_response 0: the baked values themselves (a comparison's ratio image) */
-    float3 unit = times_response ? bake_response(I, F, &sp) : (float3)(1.0f);
+    /* times_response 0: the baked values themselves (a comparison's ratio image); an
+     * analytic point's unit is its unshadowed light, subpixel s the drawer's frame s */
+    float3 unit = !times_response              ? (float3)(1.0f)
+                  : !bake_over_unshadowed(I) ? bake_response(I, F, &sp)
+                                             : lobe_light(I, F, &sp, pyramid, env_w, env_h,
+                                                          pyramid_levels, env_params.x,
+                                                          scene_lights, scene_light_count, eps,
+                                                          open_bounds, open_links, open_corners,
+                                                          (uint)s, lobe_samples);
     total += unit * bake_lookup(tri_cuts, tri_first, tri_points, baked, view_bins, tri, bu, bv,
                                 sp.wo);
   }

@@ -26,26 +26,17 @@ vec2 theta_phi_deg(vec3 d)
   return vec2(degrees(acos(clamp(d.z, -1.0, 1.0))), phi < 0.0 ? phi + 360.0 : phi);
 }
 
-/* uv: texture coordinates; angles in degrees with theta in [0, 90]. */
-vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v)
+/* An analytic codec's value for unit tangent-frame directions wi (light) and wo (view): the
+ * same in any frame about the normal (the codecs are isotropic), so a caller with vectors
+ * (shaders/lobe_lib.glsl) needs no angles and no mapping. */
+vec3 analytic_value(vec3 wi, vec3 wo)
 {
   int codec = itab(H_CODEC);
-  if (codec == CODEC_MLVQ) {
-    return mlvq_decode(uv, theta_i, phi_i, theta_v, phi_v) * ftab(F_VALUE_SCALE);
-  }
-  if (codec == CODEC_DENSE) {
-    return dense_evaluate(uv, theta_i, phi_i, theta_v, phi_v);
-  }
-  if (codec == CODEC_SVD) {
-    return svd_evaluate(uv, theta_i, phi_i, theta_v, phi_v) * ftab(F_VALUE_SCALE);
-  }
   vec3 albedo = vec3(ftab(F_ALBEDO), ftab(F_ALBEDO + 1), ftab(F_ALBEDO + 2));
-  vec3 wi = btf_direction(theta_i, phi_i);
   if (codec == CODEC_LAMBERTIAN) {
     return albedo * (max(wi.z, 0.0) / 3.14159265358979);
   }
   /* CODEC_GGX: D·G/(4 cos θo), as btf_addon/core/codecs/analytic.py */
-  vec3 wo = btf_direction(theta_v, phi_v);
   float alpha2 = ftab(F_ALPHA2);
   vec3 h = wi + wo;
   float h_len = length(h);
@@ -70,6 +61,22 @@ vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_
   float fresnel_view = f0d + (1.0 - f0d) * pow(1.0 - clamp(wo.z, 0.0, 1.0), 5.0);
   float weight = (1.0 - metallic) * (1.0 - fresnel_view);
   return weight * albedo * on + fresnel * ggx;
+}
+
+/* uv: texture coordinates; angles in degrees with theta in [0, 90]. */
+vec3 btf_evaluate(vec2 uv, float theta_i, float phi_i, float theta_v, float phi_v)
+{
+  int codec = itab(H_CODEC);
+  if (codec == CODEC_MLVQ) {
+    return mlvq_decode(uv, theta_i, phi_i, theta_v, phi_v) * ftab(F_VALUE_SCALE);
+  }
+  if (codec == CODEC_DENSE) {
+    return dense_evaluate(uv, theta_i, phi_i, theta_v, phi_v);
+  }
+  if (codec == CODEC_SVD) {
+    return svd_evaluate(uv, theta_i, phi_i, theta_v, phi_v) * ftab(F_VALUE_SCALE);
+  }
+  return analytic_value(btf_direction(theta_i, phi_i), btf_direction(theta_v, phi_v));
 }
 
 /* btf_evaluate with spatial filtering (btf_addon/core/mapping.py filtered_evaluate, as

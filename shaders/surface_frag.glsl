@@ -6,7 +6,8 @@
  *         w = 0 (orthographic).
  * v_block: this fragment's mesh's row of material_blocks, its material's mapping, texel
  *          filter and exposure (shaders/btf_mapping_lib.glsl).
- * light_range: x = first light, y = how many, z = unused (the exposure multiplier is the
+ * light_range: x = first light, y = how many, z = the directions per pixel of a baked analytic
+ *              object's unshadowed light (lobe_lib.glsl; the exposure multiplier is the
  *              block's M_EXPOSURE, as the OpenCL kernels read it), w = how many Blender
  *              lights scene_lights holds (shaders/scene_lights_lib.glsl). Each batch adds them
  *              × its light count, so the resolve's division by the lights so far leaves them
@@ -14,18 +15,23 @@
  * v_bake_tri, v_bake_bary: this fragment's triangle in the light bake and its barycentrics
  *              (shaders/bake_lib.glsl); v_bake_tri < 0 where the mesh has no bake to play back.
  *              A baked fragment adds the bake's light × the batch's light count, as Blender's
- *              lights: whatever the number of lights, it is converged from the first batch. */
+ *              lights: whatever the number of lights, it is converged from the first batch.
+ *              An analytic one's unshadowed light takes the batch's first light as its frame
+ *              (lobe_lib.glsl): later batches continue its directions' sequence.
+ * world: the World's rotation and pyramid (lobe_lib.glsl). */
 
-/* What the bake's value is per unit of (as bake_response in btf_bake.h): a measured material's
- * response to one light along the normal at this fragment's texel, times exposure; an analytic
- * material's light is stored as it is. map_point ran first. */
-vec3 bake_response(vec3 n, vec3 wo_world)
+/* What the bake's value is per unit of (as render_baked in render_direct.cl): a measured
+ * material's response to one light along the normal at this fragment's texel, times exposure
+ * (bake_response in btf_bake.h); an analytic material's unshadowed light, converged per pixel
+ * with this batch's directions (lobe_lib.glsl; bake_over_unshadowed). map_point ran first. */
+vec3 bake_response(vec3 p, vec3 t, vec3 b, vec3 n, vec3 wo_world)
 {
   int codec = itab(H_CODEC);
   if (codec == CODEC_MLVQ || codec == CODEC_DENSE || codec == CODEC_SVD) {
     return btf_mapped(n, n, wo_world) * mblock(M_EXPOSURE);
   }
-  return vec3(1.0);
+  return lobe_light(p, t, b, n, wo_world, uint(light_range.x + 0.5), int(light_range.z + 0.5),
+                    int(light_range.w));
 }
 
 void main()
@@ -45,7 +51,7 @@ void main()
   if (v_bake_tri >= 0.0) {
     if (count > 0 && wo.z > 0.0) {
       vec3 light = bake_lookup(int(v_bake_tri + 0.5), v_bake_bary, wo);
-      sum = float(count) * bake_response(n, wo_world) * light;
+      sum = float(count) * bake_response(v_world, t, b, n, wo_world) * light;
     }
     frag_color = vec4(sum, 1.0);
     return;

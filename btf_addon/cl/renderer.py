@@ -29,6 +29,7 @@ from ..core.codecs.gpu_fit import fit_for_gpu
 from ..core.codecs.packed import pack
 from ..core.sampling.btf_importance import sampled_by_table
 from ..core.sampling.envmap import VirtualLights
+from ..core.sampling.world_pyramid import lobe_defines
 from ..render.adaptive import AdaptiveSampling
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
@@ -55,6 +56,7 @@ def program_defines(features) -> dict[str, int]:
         **features.defines(),
         "FILTER_TABLE_SIZE": FILTER_TABLE_SIZE,
         "BAKE_BIN_MARGIN_PERMILLE": margin,
+        **lobe_defines(),
     }
 
 

@@ -41,6 +41,7 @@ from ..core.codecs.gpu_fit import MAX_TEXTURE_SIZE, fit_for_gpu
 from ..core.codecs.packed import layout_stream, pack
 from ..core.mat4 import inverse
 from ..core.sampling.envmap import VirtualLights
+from ..core.sampling.world_pyramid import LOBE_SAMPLES, WorldPyramid, world_pyramid
 from ..render import bake_playback
 from ..render.pixel_filter import PixelFilter, subpixel_offset
 from ..render.progressive import ProgressiveState
@@ -228,6 +229,19 @@ class ProgressiveDrawer:
             # shader reads t = 0 as the zenith (shaders/env_lib.glsl). Bilinear, wrapping
             # around the horizontal seam, as Blender's Environment Texture.
             self.env_tex = device.texture(rgba, linear=True, wrap_x=True)
+        # The World's pyramid, which baked analytic objects read (shaders/lobe_lib.glsl):
+        # uploaded while a bake plays back, kept across drawers of the same World.
+        self.pyramid: WorldPyramid | None = None
+        self.pyramid_tex = None
+        #: Directions per pixel and batch of a baked analytic object's unshadowed light
+        #: (shaders/lobe_lib.glsl): the accuracy-for-time knob docs/accuracy.md measures.
+        self.lobe_samples = previous.lobe_samples if previous is not None else LOBE_SAMPLES
+        if self._bake_upload is not None:
+            self.pyramid = world_pyramid(env)
+            if previous is not None and previous.pyramid is self.pyramid:
+                self.pyramid_tex = previous.pyramid_tex
+            else:
+                self.pyramid_tex = device.texture(self.pyramid.rgba)
         self.uploads = {
             "tables": len(set(self._table_uploads) - set(old_tables)),
             "meshes": len(set(self._batch_uploads) - set(old_batches)),
@@ -310,6 +324,7 @@ class ProgressiveDrawer:
         objects += [v for _, v in self._batch_uploads.values()]
         objects += [self.env_tex, self.quad_background, self.quad_resolve, self.no_lights]
         objects += [self.no_bake, *(self._bake_upload[1] if self._bake_upload else ())]
+        objects += [self.pyramid_tex] if self.pyramid_tex is not None else []
         return [*objects, self.scene_lights_tex, self.blocks_tex]
 
     def _hand_over(self, successor: ProgressiveDrawer) -> None:
@@ -483,15 +498,23 @@ class ProgressiveDrawer:
             clip_from_world = view.clip_from_world
         lights = view.lights if view.lights is not None else self.no_lights
         bake_index, bake_values = self._bake_upload[1] if self._bake_upload else (self.no_bake,) * 2
+        pyramid = self.pyramid_tex if self.pyramid_tex is not None else self.no_bake
+        p = self.pyramid
+        world = (
+            (self.scene.environment.rotation_z_rad, p.levels, p.width, p.height)
+            if p is not None
+            else (0.0, 0.0, 1.0, 1.0)
+        )
         device.set_state(state)
         try:
-            light_range = (first, count, 0.0, len(self.scene.lights))
+            light_range = (first, count, self.lobe_samples, len(self.scene.lights))
             for vertices, material_index in self.batches:
                 ints, floats = self.tables[material_index]
                 uniforms = {
                     "clip_from_world": clip_from_world,
                     "camera": view.camera,
                     "light_range": light_range,
+                    "world": world,
                 }
                 samplers = {
                     "btf_int_tables": ints,
@@ -501,6 +524,7 @@ class ProgressiveDrawer:
                     "material_blocks": self.blocks_tex,
                     "bake_index": bake_index,
                     "bake_values": bake_values,
+                    "world_pyramid": pyramid,
                 }
                 device.draw(self.surface, vertices, uniforms, samplers)
         finally:

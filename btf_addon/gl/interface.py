@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ..core.codecs import packed
 from ..core.errors import BuildError
+from ..core.sampling.world_pyramid import lobe_defines
 from ..scene.bake_points import BIN_MARGIN
 
 SHADERS_DIR = Path(__file__).resolve().parents[2] / "shaders"
@@ -184,8 +185,16 @@ SURFACE_SHADER = ShaderInterface(
         (4, "FLOAT_2D", "material_blocks"),
         (5, "FLOAT_2D", "bake_index"),
         (6, "FLOAT_2D", "bake_values"),
+        (7, "FLOAT_2D", "world_pyramid"),
     ),
-    push_constants=(("MAT4", "clip_from_world"), ("VEC4", "camera"), ("VEC4", "light_range")),
+    # world: the World's rotation and pyramid for an analytic object's baked light
+    # (shaders/lobe_lib.glsl)
+    push_constants=(
+        ("MAT4", "clip_from_world"),
+        ("VEC4", "camera"),
+        ("VEC4", "light_range"),
+        ("VEC4", "world"),
+    ),
     # v_block: equal at a triangle's three corners, so interpolation keeps it (read rounded).
     varyings=(
         ("VEC3", "v_world"),
@@ -198,10 +207,16 @@ SURFACE_SHADER = ShaderInterface(
     # flat: the provoking vertex's value as it is; interpolating a constant rounds it by a
     # few ulps, which for a triangle number in the millions is a whole triangle
     flat_varyings=(("FLOAT", "v_bake_tri"),),
-    libraries=(*BTF_LIBRARIES, "btf_mapping_lib.glsl", "scene_lights_lib.glsl", "bake_lib.glsl"),
+    libraries=(
+        *BTF_LIBRARIES,
+        "btf_mapping_lib.glsl",
+        "scene_lights_lib.glsl",
+        "bake_lib.glsl",
+        "lobe_lib.glsl",
+    ),
     vertex_file="surface_vert.glsl",
     fragment_file="surface_frag.glsl",
-    defines={"BAKE_BIN_MARGIN": repr(float(BIN_MARGIN))},
+    defines={"BAKE_BIN_MARGIN": repr(float(BIN_MARGIN)), **lobe_defines()},
 )
 
 # The light bake's lookup alone, per query texel (gl/query.py ``glsl_bake_lookup``): what tests

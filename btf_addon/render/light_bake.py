@@ -45,7 +45,9 @@ from ..scene.lights import pack_lights
 
 #: The file format's version: a reader refuses another. 2: the meshes' triangle ranges
 #: (``mesh_first_triangle``, what playback finds a mesh's bake by) and two-level mesh digests.
-FORMAT_VERSION = 2
+#: 3: an analytic material's values are its traced light over its unshadowed light (a ratio,
+#: kernels/include/btf_bake.h ``bake_over_unshadowed``), no longer the light itself.
+FORMAT_VERSION = 3
 SUFFIX = ".light_bake.npz"
 #: The grid's arrays as they travel (scene/bake_points.py BakeGrid); footprints stay behind.
 GRID_ARRAYS = (

@@ -92,18 +92,24 @@ inline float3 bake_lookup(__global const int *tri_cuts, __global const int *tri_
   return total > 0.0f ? out / total : out;
 }
 
-/* What the bake's value is per unit of: a measured material's response to one light along the
- * normal at the point's texel (its detail, which playback decodes live), times exposure; an
- * analytic one has no detail, and its light is stored as it is (1: the ratio of a glossy lobe
- * over its own peak, interpolated between view bins, would move the highlight). */
+/* Whether the bake's value at a material is per unit of its unshadowed light (analytic
+ * materials: render_direct.cl bake_light traces that light beside F12's, and playback
+ * multiplies the value by it converged per pixel, include/btf_lobe.h) rather than per unit
+ * of bake_response. An analytic lobe's light changes with the view faster than view bins can
+ * follow (docs/accuracy.md "The light bake played back"): what the bins carry is the ratio,
+ * shadows and interreflection, which changes slowly. */
+inline bool bake_over_unshadowed(__global const float *I)
+{
+  int codec = ITAB(H_CODEC);
+  return !(codec == CODEC_MLVQ || codec == CODEC_DENSE || codec == CODEC_SVD);
+}
+
+/* What a measured material's bake value is per unit of: its response to one light along the
+ * normal at the point's texel (its detail, which playback decodes live), times exposure. */
 inline float3 bake_response(__global const float *I, __global const float *F,
                             const SurfacePoint *sp)
 {
-  int codec = ITAB(H_CODEC);
-  if (codec == CODEC_MLVQ || codec == CODEC_DENSE || codec == CODEC_SVD) {
-    return btf_mapped(I, F, sp, (float3)(0.0f, 0.0f, 1.0f)) * sp->exposure;
-  }
-  return (float3)(1.0f);
+  return btf_mapped(I, F, sp, (float3)(0.0f, 0.0f, 1.0f)) * sp->exposure;
 }
 
 #endif
