@@ -587,7 +587,7 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
                   window_row_pdf, window_cdf, window_block,
                   max_bounces, indirect_limit};                   /* the path's limits */
   /* The same World with nothing in it and no bounces: an analytic point's unshadowed light
-   * (open_*: a BVH of one degenerate triangle, cl/bake.py _open_bvh). */
+   * (open_*: a BVH of one degenerate triangle, cl/renderer.py open_bvh). */
   PathScene open = ps;
   open.bounds = open_bounds, open.links = open_links, open.corners = open_corners;
   open.max_bounces = 0;

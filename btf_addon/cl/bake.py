@@ -8,9 +8,10 @@ per channel, by the material's response there to one light along the normal
 (docs/accuracy.md "The light bake"): playback multiplies it by the response at the pixel's own
 texel, so the bake carries the light and the live decode the material's detail. An analytic
 material's value is divided instead by its unshadowed light (the same paths with nothing in
-the way, ``_open_bvh``): what the bins carry is then shadows and interreflection, and playback
-multiplies them by the unshadowed light computed per pixel (kernels/include/btf_lobe.h), so a
-glossy lobe follows the view exactly (docs/accuracy.md "The light bake played back").
+the way, ``CLRenderer.open_bvh``): what the bins carry is then shadows and interreflection,
+and playback multiplies them by the unshadowed light computed per pixel
+(kernels/include/btf_lobe.h), so a glossy lobe follows the view exactly (docs/accuracy.md "The
+light bake played back").
 
 Work goes in passes of a few samples over every point, each pass in launches of a bounded
 number of points: a cancel between launches keeps every finished pass, so a stopped bake is a
@@ -31,7 +32,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..core import memory
-from ..core.sampling.world_pyramid import LOBE_SAMPLES, world_pyramid
+from ..core.sampling.world_pyramid import LOBE_SAMPLES
 from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, mesh_digest, scene_digest
 from ..render.pixel_filter import r2_points
 from ..scene.bake_analysis import bake_needs, neighbours_by_name
@@ -114,7 +115,7 @@ def bake_light(
     radiance = np.zeros((points, bins, 4), np.float64)
     response = np.zeros((points, bins, 4), np.float64)
     kernel = ArgumentKernel(cl.Kernel(renderer.program, "bake_light"))
-    open_bvh = _open_bvh(renderer)
+    open_bvh = renderer.open_bvh()
     chunk = 64  # points per launch; grows or shrinks to LAUNCH_SECONDS
     done, total = 0, passes * max(points, 1)
     mf = cl.mem_flags
@@ -167,15 +168,6 @@ def bake_light(
     return _finish(radiance, response, view_bins, finished, t0)
 
 
-def _open_bvh(renderer: CLRenderer) -> list:
-    """A BVH (bounds, links, corners) of one degenerate triangle, which no ray meets: the
-    kernels' empty scene, where an analytic point's unshadowed light is traced
-    (include/btf_bake.h ``bake_over_unshadowed``) and Blender's lights reach it unshadowed."""
-    bounds = renderer._buffer(np.zeros(6), np.float32)
-    links = renderer._buffer(np.array([0, 1]), np.int32)
-    return [bounds, links, renderer._buffer(np.zeros(36), np.float32)]
-
-
 def _finish(radiance, response, view_bins, passes, t0) -> BakedLight:
     unit = response[..., :3]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -207,7 +199,6 @@ def render_baked(
     kernel = cl.Kernel(renderer.program, "render_baked")
     out = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, w * h * 16)
     env = renderer.scene.environment
-    pyramid = world_pyramid(env)
     kernel(
         ctx.queue,
         renderer._global_size(h),
@@ -232,10 +223,7 @@ def render_baked(
         renderer.filter_table,
         np.int32(renderer.transparent),
         np.int32(times_response),
-        renderer._buffer(pyramid.rgba.ravel(), np.float32),
-        np.int32(pyramid.levels),
-        *renderer._env_args()[4:6],  # Blender's lights
-        *_open_bvh(renderer),
+        *renderer.lobe_args(),
         np.int32(max(int(lobe_samples), 1)),
         out,
     )

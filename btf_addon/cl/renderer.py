@@ -29,7 +29,7 @@ from ..core.codecs.gpu_fit import fit_for_gpu
 from ..core.codecs.packed import pack
 from ..core.sampling.btf_importance import sampled_by_table
 from ..core.sampling.envmap import VirtualLights
-from ..core.sampling.world_pyramid import lobe_defines
+from ..core.sampling.world_pyramid import lobe_defines, world_pyramid
 from ..render.adaptive import AdaptiveSampling
 from ..render.launch import LaunchPlan
 from ..render.pixel_filter import FILTER_TABLE_SIZE, PixelFilter, r2_points
@@ -196,6 +196,8 @@ class CLRenderer:
         #: sun_sampling only); False: as before (comparisons).
         self.lobe_window = True
         self._env_tables: dict[tuple[bool, bool, bool], list] = {}
+        self._open_bvh: list | None = None  # open_bvh's buffers, on first use
+        self._pyramid: list | None = None  # lobe_args's pyramid, on first use
 
     def _buffer(self, array, dtype):
         mf = self.cl.mem_flags
@@ -329,6 +331,32 @@ class CLRenderer:
             self.scene_lights,
             self.scene_light_count,
         ]
+
+    def open_bvh(self) -> list:
+        """A BVH (bounds, links, corners) of one degenerate triangle, which no ray meets: the
+        kernels' empty scene, where the light bake traces an analytic point's unshadowed light
+        (include/btf_bake.h ``bake_over_unshadowed``) and Blender's lights reach it
+        unshadowed. Uploaded on first use, once per renderer."""
+        if self._open_bvh is None:
+            self._open_bvh = [
+                self._buffer(np.zeros(6), np.float32),
+                self._buffer(np.array([0, 1]), np.int32),
+                self._buffer(np.zeros(36), np.float32),
+            ]
+        return self._open_bvh
+
+    def lobe_args(self) -> list:
+        """What kernels/include/btf_lobe.h ``lobe_light`` reads besides the surface point and
+        the World's map: the World's pyramid and its level count
+        (core/sampling/world_pyramid.py, uploaded on first use, once per renderer), Blender's
+        lights, and ``open_bvh``'s empty scene."""
+        if self._pyramid is None:
+            pyramid = world_pyramid(self.scene.environment)
+            self._pyramid = [
+                self._buffer(pyramid.rgba.ravel(), np.float32),
+                np.int32(pyramid.levels),
+            ]
+        return [*self._pyramid, self.scene_lights, self.scene_light_count, *self.open_bvh()]
 
     def _next_event_tables(self) -> list:
         """The environment's tables for the Sampled mode's draws, exactly those of

@@ -5,18 +5,18 @@ over that direction's share of the sphere, so a handful of directions gives a co
 
 Averaging blurs: a small bright source (a sun, sky through leaves) would spread over the
 filter's area and its highlight with it. So the light above SUN_RATIO × the map's mean
-luminance is taken out of the map first and summed into at most MAX_SUNS directional lights
-(the map's blocks that hold any, each at its light-weighted mean direction with its total
-power), which playback evaluates exactly; the pyramid holds the rest (docs/accuracy.md "The
-light bake played back" measures both).
+luminance (the final render's sun threshold, core/sampling/envmap.py) is taken out of the map
+first and summed into at most MAX_SUNS directional lights (the map's blocks that hold any, each
+at its light-weighted mean direction with its total power), which playback evaluates exactly;
+the pyramid holds the rest (docs/accuracy.md "The light bake played back" measures both).
 
-Levels: level 0 is the World's map without its suns, halved while wider than MAX_WIDTH;
-level k is level k − 1 averaged over blocks of 2 × 2
-pixels (every column and row once; odd sizes give one block of 3), each pixel weighted by its
-solid angle (sin θ of its row), down to 1 × 1. They are stacked top to bottom in one (rows, W, 4)
-float32 array, level k at rows [offset_k, offset_k + h_k), columns [0, w_k), with
-w_k = max(W >> k, 1) and h_k = max(H >> k, 1): the GPU shader (shaders/lobe_lib.glsl) and the
-OpenCL kernel (kernels/include/btf_lobe.h) find a level from W, H and k alone. One more row
+Levels: level 0 is the World's map without its suns, halved while wider than MAX_WIDTH; level
+k is level k − 1 averaged over blocks of 2 × 2 pixels (every column and row once; odd sizes
+give one block of 3), each pixel weighted by its solid angle (sin θ of its row), down to 1 × 1.
+They are stacked top to bottom in one (rows, W, 4) float32 array, level k at rows
+[offset_k, offset_k + h_k), columns [0, w_k), with w_k = max(W >> k, 1) and
+h_k = max(H >> k, 1): the GPU shader (shaders/lobe_lib.glsl) and the OpenCL kernel
+(kernels/include/btf_lobe.h) find a level from W, H and k alone. One more row
 holds the suns: texel 2i = (direction in the map's frame, xyz; texel 0's w: how many), texel
 2i + 1 = (power, rgb: radiance × solid angle). bpy- and GL-free.
 """
@@ -26,6 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from .envmap import LUMINANCE, SUN_RATIO
 
 #: Directions per pixel and frame of an analytic object's unshadowed light (the method:
 #: kernels/include/btf_lobe.h; the drawer's ``lobe_samples``, render_baked's), a draw-time
@@ -38,9 +40,6 @@ LOBE_SAMPLES = 32
 LOBE_LOD_BIAS = 0
 
 
-#: Light above this multiple of the map's mean luminance leaves the pyramid for the suns (the
-#: final render's sun threshold, core/sampling/envmap.py SUN_RATIO).
-SUN_RATIO = 16.0
 #: Directional lights the suns are summed into at most (each costs a pixel one evaluation).
 MAX_SUNS = 64
 #: The finest blocks the suns are summed over: this many across the map (5.6° each).
@@ -48,7 +47,6 @@ SUN_BLOCKS = 64
 #: Level 0's widest: a lobe drawn 32 times reads finer levels only where it is narrower than
 #: about 1° (roughness < 0.1), and a 4096 × 2048 map's pyramid would be 256 MiB of textures.
 MAX_WIDTH = 2048
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def lobe_defines() -> dict[str, int]:
@@ -116,7 +114,7 @@ def world_pyramid(env) -> WorldPyramid:
     height, width = base.shape[:2]
     theta = (np.arange(height) + 0.5) / height * np.pi
     sin_rows = np.maximum(np.sin(theta), 1e-6).astype(np.float32)
-    sun_dirs, sun_power = _take_suns(base, sin_rows)  # from the full map: exact suns
+    sun_dirs, sun_power = _take_suns(base, sin_rows, env.mean_luminance)  # the full map's
     while width > MAX_WIDTH:  # a larger map's finest level is this wide (the bound above)
         width, height = level_size(width, height, 1)
         base, sin_rows = _halve(base, sin_rows, width, height)
@@ -146,15 +144,13 @@ def world_pyramid(env) -> WorldPyramid:
     return pyramid
 
 
-def _take_suns(base: np.ndarray, sin_rows: np.ndarray):
-    """Take the light above SUN_RATIO × its mean luminance out of map ``base`` (in place) and
-    return (the suns' directions in the map's frame (S, 3), their power (S, 3)): the light
-    taken out summed per block of the map, blocks doubling in size until at most MAX_SUNS
-    hold any."""
+def _take_suns(base: np.ndarray, sin_rows: np.ndarray, mean: float):
+    """Take the light above SUN_RATIO × ``mean`` (the map's mean luminance over the sphere,
+    Environment.mean_luminance) out of map ``base`` (in place) and return (the suns'
+    directions in the map's frame (S, 3), their power (S, 3)): the light taken out summed per
+    block of the map, blocks doubling in size until at most MAX_SUNS hold any."""
     height, width = base.shape[:2]
     luminance = base @ LUMINANCE.astype(np.float32)
-    mean = float((luminance * sin_rows[:, None]).sum(dtype=np.float64))
-    mean /= float(sin_rows.sum(dtype=np.float64)) * width
     no_suns = np.zeros((0, 3))
     if not mean > 0.0:
         return no_suns, no_suns
