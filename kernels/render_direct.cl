@@ -539,8 +539,9 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
 /* --- The light bake (btf_addon/cl/bake.py; docs/accuracy.md "The light bake") ---------------
  * Per bake point and view bin: F12's own paths (path_light) from points of the bake point's
  * footprint (its neighbourhood on the surface, btf_addon/scene/bake_points.py) towards the
- * bin's direction, and beside them the material's response to one light along the normal at
- * the same points. Their ratio is the light per unit of that response: playback multiplies it
+ * bin's direction, and beside them the material's response at the same points to one light
+ * from the point's mean light direction (bake_light_direction below, traced first). Their ratio
+ * is the light per unit of that response: playback multiplies it
  * by the response at the pixel's own texel, decoded live, so the bake carries the light
  * (centimetres coarse) and the live decode the material's detail (0.1 mm). An analytic
  * material's response is its unshadowed light, the same paths through an empty scene without
@@ -550,6 +551,119 @@ __kernel void render_env_mis(const int width, const int height, const int row0,
  * footprints given (a subset of the grid's points: a re-bake traces only the stale meshes');
  * point_ids gives each one's index in the whole grid, which seeds its paths, so a point gets the
  * same random numbers whichever subset is baked: a partial re-bake equals a full one there. */
+
+/* Sample `index` of bake point p's footprint, seen from the normal's side (the frame
+ * surface_point builds faces it); false where the footprint holds no triangle of the scene.
+ * The footprint position by a hash of the index, not index mod F: the Sobol points of indices
+ * ≡ k mod 2^m share their leading bits, so a fixed stride would light each position from one
+ * stratum of the sky only. */
+inline bool bake_footprint_point(int p, int footprint, __global const int *foot_tri,
+                                 __global const float *foot_bary, uint point_seed, uint index,
+                                 int tri_count, __global const float *corners,
+                                 __global const int *tri_material,
+                                 __global const float *material_params, float eps,
+                                 SurfacePoint *sp)
+{
+  int pick = p * footprint + (int)(pcg_hash(index ^ point_seed ^ 0x68E31DA4u) % (uint)footprint);
+  int tri = foot_tri[pick];
+  if (tri < 0 || tri >= tri_count) {
+    return false;
+  }
+  float2 bary = vload2(pick, foot_bary);
+  __global const float *c = corners + 36 * tri;
+  float w0 = 1.0f - bary.x - bary.y;
+  float3 pos = w0 * vload3(0, c) + bary.x * vload3(0, c + 12) + bary.y * vload3(0, c + 24);
+  float3 n = w0 * vload3(0, c + 3) + bary.x * vload3(0, c + 15) + bary.y * vload3(0, c + 27);
+  if (!(length(n) > 1e-12f)) { /* opposite corner normals: the face's own */
+    n = cross(vload3(0, c + 12) - vload3(0, c), vload3(0, c + 24) - vload3(0, c));
+  }
+  n = normalize(n);
+  *sp = surface_point(pos + n, -n, 1.0f, bary.x, bary.y, tri, corners, tri_material,
+                      material_params, eps);
+  return true;
+}
+
+/* Per bake point, the light its footprint receives as (Σ E·wi, Σ E): E the luminance of the
+ * irradiance along wi, wi in the point's frame; its direction is the point's light direction
+ * (btf_bake.h bake_response; cl/bake.py light_directions). The World is drawn from its plain
+ * table (row_cdf … col_pdf: envmap.py Environment.tables, whose draws reach every direction
+ * with light, where the final render's compensated tables leave the dim sky to the BTF's
+ * draws) and Blender's lights one point each, both behind whatever occludes them. Light from
+ * other surfaces is left out: it is dim beside the World's, and would cost a path. */
+__kernel void bake_light_direction(const int point0, const int point_end, const int footprint,
+                                   __global const int *foot_tri,
+                                   __global const float *foot_bary,
+                                   __global const int *point_ids, const int tri_count,
+                                   __global const float *bounds, __global const int *links,
+                                   __global const float *corners,
+                                   __global const int *tri_material,
+                                   __global const float *ints, __global const float *floats,
+                                   __global const int *material_offsets,
+                                   __global const float *material_params, const float eps,
+                                   __global const float *env, const int env_w, const int env_h,
+                                   const float2 env_params, __global const float *scene_lights,
+                                   const int scene_light_count, __global const float *row_cdf,
+                                   __global const float *col_cdf, __global const float *row_pdf,
+                                   __global const float *col_pdf, const int samples,
+                                   const uint seed, __global float *sums)
+{
+  int local_point = get_global_id(0);
+  int p = point0 + local_point;
+  if (p >= point_end) {
+    return;
+  }
+  const float3 luminance = (float3)(0.2126f, 0.7152f, 0.0722f); /* envmap.LUMINANCE */
+  uint point_seed = pcg_hash((uint)point_ids[p] ^ pcg_hash(seed ^ 0x3C6EF372u));
+  float3 towards = (float3)(0.0f);
+  float total = 0.0f;
+  for (int si = 0; si < samples; si++) {
+    SurfacePoint sp;
+    if (!bake_footprint_point(p, footprint, foot_tri, foot_bary, point_seed, (uint)si,
+                              tri_count, corners, tri_material, material_params, eps, &sp)) {
+      continue;
+    }
+    Sampler smp = {point_seed, (uint)si, 0u, pcg_hash(point_seed + (uint)si)};
+#if HAS_ENVIRONMENT
+    {
+      int pixel;
+      float sin_t;
+      float3 dir = table_draw(next_2d(&smp), row_cdf, col_cdf, env_w, env_h, env_params.x,
+                              &pixel, &sin_t);
+      float pdf = table_density(row_pdf, col_pdf, env_w, env_h, pixel, sin_t);
+      float3 wi = to_frame(&sp, dir);
+      bool visible = wi.z > 0.0f && pdf > 0.0f;
+#if HAS_SHADOWS
+      visible = visible && unoccluded(sp.start, dir, eps, INFINITY, bounds, links, corners);
+#endif
+      if (visible) {
+        float e = dot(vload3(0, env + 4 * pixel), luminance) * env_params.y * wi.z / pdf;
+        towards += e * wi;
+        total += e;
+      }
+    }
+#endif
+    for (int i = 0; i < scene_light_count; i++) {
+      __global const float *L = scene_lights + LIGHT_FLOATS * i;
+      float3 dir;
+      float dist;
+      float e = dot(light_sample(L, sp.start, next_2d(&smp), true, &dir, &dist), luminance);
+      float3 wi = to_frame(&sp, dir);
+      bool visible = wi.z > 0.0f && e > 0.0f;
+#if HAS_SHADOWS
+      float tmax = isinf(dist) ? INFINITY : dist * (1.0f - 1e-4f);
+      visible = visible && unoccluded(sp.start, dir, eps, tmax, bounds, links, corners);
+#endif
+      if (visible) {
+        towards += e * wi.z * wi;
+        total += e * wi.z;
+      }
+    }
+  }
+  vstore4((float4)(towards, total), local_point, sums);
+}
+
+/* Per bake point and view bin, the sums of F12's light and of the unit it is per (the block
+ * comment above): `light_dirs` holds each point's light direction (float4 rows, unit xyz). */
 __kernel void bake_light(const int point0, const int point_end, const int bin_count,
                          const int footprint, __global const int *foot_tri,
                          __global const float *foot_bary, __global const int *point_ids,
@@ -570,7 +684,8 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
                          const int window_block, const int first_sample, const int samples,
                          const uint seed, const int max_bounces, const float indirect_limit,
                          __global const float *open_bounds, __global const int *open_links,
-                         __global const float *open_corners, __global float *radiance,
+                         __global const float *open_corners,
+                         __global const float *light_dirs, __global float *radiance,
                          __global float *response)
 {
   int local_point = get_global_id(0), bin = get_global_id(1);
@@ -594,30 +709,16 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
   float3 wo = vload3(0, bin_dirs + 4 * bin);
   /* unsigned: defined past 2^31, where an int's overflow is not (the same value below it) */
   uint point_seed = pcg_hash(((uint)point_ids[p] * (uint)bin_count + (uint)bin) ^ pcg_hash(seed));
+  float3 light_dir = vload3(0, light_dirs + 4 * p); /* bake_light_direction's, made unit */
   float3 light = (float3)(0.0f), unit = (float3)(0.0f);
   int counted = 0;
   for (int si = 0; si < samples; si++) {
     uint index = (uint)(first_sample + si);
-    /* The footprint position by a hash of the index, not index mod F: the Sobol points of
-     * indices ≡ k mod 2^m share their leading bits, so a fixed stride would light each
-     * position from one stratum of the sky only. */
-    int pick = p * footprint + (int)(pcg_hash(index ^ point_seed ^ 0x68E31DA4u) % (uint)footprint);
-    int tri = foot_tri[pick];
-    if (tri < 0 || tri >= tri_count) {
+    SurfacePoint sp;
+    if (!bake_footprint_point(p, footprint, foot_tri, foot_bary, point_seed, index, tri_count,
+                              corners, tri_material, material_params, eps, &sp)) {
       continue;
     }
-    float2 bary = vload2(pick, foot_bary);
-    __global const float *c = corners + 36 * tri;
-    float w0 = 1.0f - bary.x - bary.y;
-    float3 pos = w0 * vload3(0, c) + bary.x * vload3(0, c + 12) + bary.y * vload3(0, c + 24);
-    float3 n = w0 * vload3(0, c + 3) + bary.x * vload3(0, c + 15) + bary.y * vload3(0, c + 27);
-    if (!(length(n) > 1e-12f)) { /* opposite corner normals: the face's own */
-      n = cross(vload3(0, c + 12) - vload3(0, c), vload3(0, c + 24) - vload3(0, c));
-    }
-    n = normalize(n);
-    /* A viewer on the normal's side: the frame surface_point builds faces it. */
-    SurfacePoint sp = surface_point(pos + n, -n, 1.0f, bary.x, bary.y, tri, corners,
-                                    tri_material, material_params, eps);
     sp.wo = wo;
     Sampler smp = {point_seed, index, 0u, pcg_hash(point_seed + index)};
     Sampler open_smp = smp; /* the same random numbers: the ratio's noise mostly cancels */
@@ -628,7 +729,7 @@ __kernel void bake_light(const int point0, const int point_end, const int bin_co
       path_light(&open, sp, &open_smp, &unit);
     }
     else {
-      unit += bake_response(I, F, &sp);
+      unit += bake_response(I, F, &sp, light_dir);
     }
     counted++;
   }
@@ -696,17 +797,19 @@ __kernel void render_baked(const int width, const int height, const int row0,
     }
     __global const float *I = ints + material_offsets[2 * sp.material];
     __global const float *F = floats + material_offsets[2 * sp.material + 1];
+    float3 light_dir;
+    float3 value = bake_lookup(tri_cuts, tri_first, tri_points, baked, view_bins, tri, bu, bv,
+                               sp.wo, &light_dir);
     /* times_response 0: the baked values themselves (a comparison's ratio image); an
      * analytic point's unit is its unshadowed light, subpixel s the drawer's frame s */
     float3 unit = !times_response              ? (float3)(1.0f)
-                  : !bake_over_unshadowed(I) ? bake_response(I, F, &sp)
+                  : !bake_over_unshadowed(I) ? bake_response(I, F, &sp, light_dir)
                                              : lobe_light(I, F, &sp, pyramid, env_w, env_h,
                                                           pyramid_levels, env_params.x,
                                                           scene_lights, scene_light_count, eps,
                                                           open_bounds, open_links, open_corners,
                                                           (uint)s, lobe_samples);
-    total += unit * bake_lookup(tri_cuts, tri_first, tri_points, baked, view_bins, tri, bu, bv,
-                                sp.wo);
+    total += unit * value;
   }
   float n = (float)max(aa_samples, 1);
   vstore4((float4)(total / n, transparent ? coverage / n : 1.0f), yr * width + x, combined);

@@ -5,8 +5,9 @@
  * bake_index: an R32F stream laid out TABLE_WIDTH texels a row, as the BTF tables:
  *   [0] view bins V, [1] where tri_points start, then per bake triangle t its cuts n at
  *   2 + 2t and its first entry at 3 + 2t, then tri_points (integers, exact below 2^24);
- * bake_values: RGBA32F, TABLE_WIDTH texels a row, texel point·V² + bin holding its light per
- *   unit response (rgb).
+ * bake_values: RGBA32F, TABLE_WIDTH texels a row, texel point·(V² + 1) + bin holding its light
+ *   per unit response (rgb), texel point·(V² + 1) + V² its light's direction (xyz, the frame's;
+ *   bake_points.pack_values).
  *
  * BAKE_BIN_MARGIN (bake_points.BIN_MARGIN) arrives as a define (btf_addon/gl/interface.py).
  * Nothing here reads a BTF: the response the value is per unit of is surface_frag.glsl's. */
@@ -43,9 +44,17 @@ vec2 bake_square(vec3 w)
   return clamp(vec2(a + 1.0, b + 1.0) * 0.5, 0.0, 1.0);
 }
 
+/* A blend of unit light directions made one again (bake_direction in btf_bake.h). */
+vec3 bake_direction(vec3 sum)
+{
+  float len = length(sum);
+  return len > 1e-6 && !isinf(len) && !isnan(len) ? sum / len : vec3(0.0, 0.0, 1.0);
+}
+
 /* The bake's light per unit response at bake triangle `tri`, barycentrics `bary` (of corners
- * 1 and 2), for the view `wo` in the surface's frame: 3 grid points × 4 view bins. */
-vec3 bake_lookup(int tri, vec2 bary, vec3 wo)
+ * 1 and 2), for the view `wo` in the surface's frame: 3 grid points × 4 view bins;
+ * `light_dir`: the points' light direction blended (the frame's). */
+vec3 bake_lookup(int tri, vec2 bary, vec3 wo, out vec3 light_dir)
 {
   int view_bins = bake_int(0), points_at = bake_int(1);
   int n = max(bake_int(2 + 2 * tri), 1), first = bake_int(3 + 2 * tri);
@@ -79,10 +88,11 @@ vec3 bake_lookup(int tri, vec2 bary, vec3 wo)
   float fx = s.x - float(c0), fy = s.y - float(r0);
   int c1 = min(c0 + 1, view_bins - 1), r1 = min(r0 + 1, view_bins - 1);
   int bins = view_bins * view_bins;
-  vec3 sum = vec3(0.0);
+  vec3 sum = vec3(0.0), dir = vec3(0.0);
   for (int k = 0; k < 3; k++) {
     int point = bake_int(points_at + first + vi[k] * (n + 1) - vi[k] * (vi[k] - 1) / 2 + vj[k]);
-    int row = bins * point;
+    int row = (bins + 1) * point;
+    dir += w[k] * bake_value(row + bins);
     vec3 v = (bake_value(row + r0 * view_bins + c0) * (1.0 - fx) +
               bake_value(row + r0 * view_bins + c1) * fx) *
                  (1.0 - fy) +
@@ -91,5 +101,6 @@ vec3 bake_lookup(int tri, vec2 bary, vec3 wo)
                  fy;
     sum += w[k] * v;
   }
+  light_dir = bake_direction(dir);
   return total > 0.0 ? sum / total : sum;
 }

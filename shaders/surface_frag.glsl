@@ -21,14 +21,16 @@
  * world: the World's rotation and pyramid (lobe_lib.glsl). */
 
 /* What the bake's value is per unit of (as render_baked in render_direct.cl): a measured
- * material's response to one light along the normal at this fragment's texel, times exposure
- * (bake_response in btf_bake.h); an analytic material's unshadowed light, converged per pixel
- * with this batch's directions (lobe_lib.glsl; bake_over_unshadowed). map_point ran first. */
-vec3 bake_response(vec3 p, vec3 t, vec3 b, vec3 n, vec3 wo_world)
+ * material's response at this fragment's texel to one light from the bake's light direction
+ * `light_dir` (t, b, n's), times exposure (bake_response in btf_bake.h); an analytic
+ * material's unshadowed light, converged per pixel with this batch's directions
+ * (lobe_lib.glsl; bake_over_unshadowed). map_point ran first. */
+vec3 bake_response(vec3 p, vec3 t, vec3 b, vec3 n, vec3 wo_world, vec3 light_dir)
 {
   int codec = itab(H_CODEC);
   if (codec == CODEC_MLVQ || codec == CODEC_DENSE || codec == CODEC_SVD) {
-    return btf_mapped(n, n, wo_world) * mblock(M_EXPOSURE);
+    vec3 wi_world = light_dir.x * t + light_dir.y * b + light_dir.z * n;
+    return btf_mapped(n, wi_world, wo_world) * mblock(M_EXPOSURE);
   }
   return lobe_light(p, t, b, n, wo_world, uint(light_range.x + 0.5), int(light_range.z + 0.5),
                     int(light_range.w));
@@ -50,8 +52,9 @@ void main()
   int first = int(light_range.x), count = int(light_range.y);
   if (v_bake_tri >= 0.0) {
     if (count > 0 && wo.z > 0.0) {
-      vec3 light = bake_lookup(int(v_bake_tri + 0.5), v_bake_bary, wo);
-      sum = float(count) * bake_response(v_world, t, b, n, wo_world) * light;
+      vec3 light_dir;
+      vec3 light = bake_lookup(int(v_bake_tri + 0.5), v_bake_bary, wo, light_dir);
+      sum = float(count) * bake_response(v_world, t, b, n, wo_world, light_dir) * light;
     }
     frag_color = vec4(sum, 1.0);
     return;

@@ -4,9 +4,11 @@ a bake (what the drawer plays back), both through the renderer's own program
 kernels/include/btf_path.h, the one F12 traces).
 
 A bake point's value per view bin is the light leaving its footprint towards that view divided,
-per channel, by the material's response there to one light along the normal
+per channel, by the material's response there to one light from the point's light direction
 (docs/accuracy.md "The light bake"): playback multiplies it by the response at the pixel's own
-texel, so the bake carries the light and the live decode the material's detail. An analytic
+texel, so the bake carries the light and the live decode the material's detail. The light
+direction is traced first (``light_directions``): the mean direction, weighted by irradiance,
+of the World's and Blender's light that reaches the footprint. An analytic
 material's value is divided instead by its unshadowed light (the same paths with nothing in
 the way, ``CLRenderer.open_bvh``): what the bins carry is then shadows and interreflection,
 and playback multiplies them by the unshadowed light computed per pixel
@@ -36,7 +38,7 @@ from ..core.sampling.world_pyramid import LOBE_SAMPLES
 from ..render.light_bake import GRID_ARRAYS, LightBake, MeshBake, mesh_digest, scene_digest
 from ..render.pixel_filter import r2_points
 from ..scene.bake_analysis import bake_needs, neighbours_by_name
-from ..scene.bake_points import BakeGrid, bin_directions, build_grid
+from ..scene.bake_points import BakeGrid, bin_directions, build_grid, pack_values
 from .kernel_args import ArgumentKernel
 from .renderer import LOCAL_SIZE, CLRenderer
 
@@ -49,23 +51,108 @@ LAUNCH_SECONDS = 0.1
 #: of light and response with a pass's own copies (4 × 4 × 8). With the grid's own bytes, what
 #: a bake is refused by up front (core/memory.py) before any device work.
 BAKE_VALUE_BYTES = 12 + 128
+#: Host bytes per point beside its values: its light direction (float32, and float32 for
+#: the device's copy with a pad) and the direction's sums (4 × float32).
+BAKE_POINT_BYTES = 12 + 16 + 16
 #: Below this response (per channel) a texel gives no light to scale: its ratio is 0 there.
 RESPONSE_FLOOR = 1e-8
+#: Draws per point for its light direction (one of the World and one per Blender light each):
+#: a mean direction, so a few hundred settle it to about a degree under an even sky.
+DIRECTION_SAMPLES = 256
+#: The light direction's lowest elevation: cos 75°, where measured BTFs end (DESIGN.md:
+#: nothing is measured past θ = 75°); a response to lower light is extrapolated.
+MIN_LIGHT_COS = float(np.cos(np.radians(75.0)))
 
 
 @dataclass
 class BakedLight:
     """(P, V², 3) float32 ``ratio``: light per unit response per point and view bin;
-    ``samples``: the samples each value averages (the last finished pass's count)."""
+    (P, 3) float32 ``light_dir``: the unit direction the response is to, per point (its frame;
+    None: the normal); ``samples``: the samples each value averages (the last finished pass's
+    count)."""
 
     ratio: np.ndarray
     view_bins: int
     samples: int
     seconds: float
+    light_dir: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.light_dir is None:
+            self.light_dir = np.tile(np.float32([0.0, 0.0, 1.0]), (len(self.ratio), 1))
 
     @property
     def nbytes(self) -> int:
-        return int(self.ratio.nbytes)
+        return int(self.ratio.nbytes + self.light_dir.nbytes)
+
+
+def unit_light_directions(sums: np.ndarray) -> np.ndarray:
+    """(P, 4) ``bake_light_direction`` sums (Σ E·wi, Σ E) → (P, 3) float32 unit directions:
+    their mean direction raised to MIN_LIGHT_COS at least; the normal where no light arrived
+    or the mean is shorter than 1e-3 of it (light from all round: no direction stands out)."""
+    sums = np.nan_to_num(np.asarray(sums, np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    towards, total = sums[:, :3], sums[:, 3]
+    length = np.linalg.norm(towards, axis=1)
+    ok = (total > 0.0) & (length > 1e-3 * np.maximum(total, 0.0))
+    d = np.where(ok[:, None], towards / np.where(ok, length, 1.0)[:, None], (0.0, 0.0, 1.0))
+    # raised towards the normal along its own azimuth to MIN_LIGHT_COS
+    low = d[:, 2] < MIN_LIGHT_COS
+    side = np.hypot(d[:, 0], d[:, 1])
+    scale = np.sqrt(1.0 - MIN_LIGHT_COS**2) / np.where(side > 0.0, side, 1.0)
+    d[low, :2] *= scale[low, None]
+    d[low, 2] = MIN_LIGHT_COS
+    return d.astype(np.float32)
+
+
+def light_directions(
+    renderer: CLRenderer,
+    foot_tri,
+    foot_bary,
+    ids,
+    points: int,
+    footprint: int,
+    seed: int,
+    progress: Callable[[float], bool] | None = None,
+) -> np.ndarray | None:
+    """(points, 3) float32 unit light directions (``unit_light_directions``) from
+    DIRECTION_SAMPLES draws per point (kernels/render_direct.cl ``bake_light_direction``);
+    the footprints and ids as ``bake_light`` uploaded them. One launch per 4096 points (a
+    point costs a few hundred shadow rays: a few percent of its bake), each followed by
+    ``progress(0.0)``; None where it answers False (cancelled)."""
+    cl, ctx = renderer.cl, renderer.ctx
+    plain = renderer.scene.environment.tables
+    tables = [
+        renderer._buffer(a.ravel(), np.float32)
+        for a in (plain.row_cdf, plain.col_cdf, plain.row_pdf, plain.col_pdf)
+    ]
+    kernel = ArgumentKernel(cl.Kernel(renderer.program, "bake_light_direction"))
+    sums = np.zeros((points, 4), np.float32)
+    step = 4096
+    for start in range(0, points, step):
+        count = min(step, points - start)
+        out = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, count * 16)
+        kernel(
+            ctx.queue,
+            (-(-count // LOCAL_SIZE[0]) * LOCAL_SIZE[0],),
+            (LOCAL_SIZE[0],),
+            np.int32(start),
+            np.int32(start + count),
+            np.int32(footprint),
+            foot_tri,
+            foot_bary,
+            ids,
+            *renderer._scene_args(),
+            renderer.eps,
+            *renderer._env_args(),
+            *tables,
+            np.int32(DIRECTION_SAMPLES),
+            np.uint32(seed),
+            out,
+        )
+        cl.enqueue_copy(ctx.queue, sums[start : start + count], out)
+        if progress is not None and not progress(0.0):
+            return None
+    return unit_light_directions(sums)
 
 
 def _device_order(renderer: CLRenderer, triangles: np.ndarray) -> np.ndarray:
@@ -114,6 +201,12 @@ def bake_light(
     passes = whole_passes(samples) // PASS_SAMPLES
     radiance = np.zeros((points, bins, 4), np.float64)
     response = np.zeros((points, bins, 4), np.float64)
+    light_dir = light_directions(
+        renderer, foot_tri, foot_bary, ids, points, footprint, seed, progress
+    )
+    if light_dir is None:  # cancelled before any pass: nothing baked
+        return _finish(radiance, response, None, view_bins, 0, t0)
+    dir_buf = buf(np.column_stack([light_dir, np.zeros(points)]).ravel(), np.float32)
     kernel = ArgumentKernel(cl.Kernel(renderer.program, "bake_light"))
     open_bvh = renderer.open_bvh()
     chunk = 64  # points per launch; grows or shrinks to LAUNCH_SECONDS
@@ -148,6 +241,7 @@ def bake_light(
                 np.int32(bounces),
                 np.float32(max(renderer.clamp_indirect, 0.0)),
                 *open_bvh,
+                dir_buf,
                 out_l,
                 out_r,
             )
@@ -164,16 +258,17 @@ def bake_light(
                 response += pass_response
                 finished += 1
             if progress is not None and not progress(done / total):
-                return _finish(radiance, response, view_bins, finished, t0)
-    return _finish(radiance, response, view_bins, finished, t0)
+                return _finish(radiance, response, light_dir, view_bins, finished, t0)
+    return _finish(radiance, response, light_dir, view_bins, finished, t0)
 
 
-def _finish(radiance, response, view_bins, passes, t0) -> BakedLight:
+def _finish(radiance, response, light_dir, view_bins, passes, t0) -> BakedLight:
     unit = response[..., :3]
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(unit > RESPONSE_FLOOR, radiance[..., :3] / unit, 0.0)
     ratio = np.nan_to_num(ratio, nan=0.0, posinf=0.0, neginf=0.0).astype(np.float32)
-    return BakedLight(ratio, view_bins, passes * PASS_SAMPLES, time.perf_counter() - t0)
+    seconds = time.perf_counter() - t0
+    return BakedLight(ratio, view_bins, passes * PASS_SAMPLES, seconds, light_dir)
 
 
 def render_baked(
@@ -193,8 +288,7 @@ def render_baked(
     w, h = renderer.width, renderer.height
     buf = renderer._buffer
     order = renderer.triangle_order
-    values = np.zeros((max(grid.point_count, 1), baked.view_bins**2, 4), np.float32)
-    values[: grid.point_count, :, :3] = baked.ratio
+    values = pack_values(baked.ratio, baked.light_dir)
     aa = max(int(aa_samples), 1) if renderer.film is not None else 1
     kernel = cl.Kernel(renderer.program, "render_baked")
     out = cl.Buffer(ctx.context, cl.mem_flags.WRITE_ONLY, w * h * 16)
@@ -247,7 +341,8 @@ def playback_grid(bake: LightBake) -> BakeGrid:
 def baked_light(bake: LightBake) -> BakedLight:
     """A bake's values as ``render_baked`` takes them."""
     samples = int(bake.knobs.get("samples", 0))
-    return BakedLight(bake.arrays["ratio"], bake.view_bins, samples, bake.seconds)
+    a = bake.arrays
+    return BakedLight(a["ratio"], bake.view_bins, samples, bake.seconds, a["light_dir"])
 
 
 @dataclass(frozen=True)
@@ -384,14 +479,18 @@ def bake_scene(
     memory.require(
         memory.Estimate(
             f"a light bake of {len(chosen)} points × {bins} view directions",
-            (len(chosen) * BAKE_VALUE_BYTES + kept_points * 12) * bins + grid.nbytes,
+            (len(chosen) * BAKE_VALUE_BYTES + kept_points * 12) * bins
+            + grid.point_count * BAKE_POINT_BYTES
+            + grid.nbytes,
             "raise the spacing or lower the view directions",
         )
     )
     ratio = np.zeros((grid.point_count, bins, 3), np.float32)
+    light_dir = np.tile(np.float32([0.0, 0.0, 1.0]), (grid.point_count, 1))
     for i, first in reuse.kept.items():
         count = blocks[i + 1] - blocks[i]
-        ratio[blocks[i] : blocks[i + 1]] = previous.arrays["ratio"][first : first + count]
+        for name, array in (("ratio", ratio), ("light_dir", light_dir)):
+            array[blocks[i] : blocks[i + 1]] = previous.arrays[name][first : first + count]
     # What every baked value averages: the kept ones a finished bake's samples (the knobs
     # matched), the traced ones what the device finished; fewer (a cancel) and the next
     # re-bake finds the knobs differ and bakes everything again.
@@ -412,6 +511,7 @@ def bake_scene(
             point_ids=chosen,
         )
         ratio[chosen] = baked.ratio
+        light_dir[chosen] = baked.light_dir
         samples = baked.samples
     seconds = time.perf_counter() - t0
     meshes = [
@@ -420,6 +520,7 @@ def bake_scene(
     ]
     arrays = {k: getattr(grid, k) for k in GRID_ARRAYS}
     arrays["ratio"] = ratio
+    arrays["light_dir"] = light_dir
     knob_values = {**asdict(knobs), "samples": samples}
     return LightBake(arrays, knob_values, meshes, scene_digest(scene), seconds)
 

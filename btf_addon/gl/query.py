@@ -138,10 +138,11 @@ def _draw_queries(ctx, vao, tables, a: np.ndarray, b: np.ndarray, size) -> np.nd
     return out.reshape(h * w, 4)[:, :3].astype(np.float64)
 
 
-def glsl_bake_lookup(bake, tri, bary, wo, ctx=None) -> np.ndarray:
+def glsl_bake_lookup(bake, tri, bary, wo, ctx=None, direction: bool = False) -> np.ndarray:
     """(N, 3) float64: the light bake's lookup (shaders/bake_lib.glsl) at bake triangles
-    ``tri`` (N,), barycentrics ``bary`` (N, 2) and views ``wo`` (N, 3, the surface's frame);
-    ``bake``: a render/light_bake.py LightBake."""
+    ``tri`` (N,), barycentrics ``bary`` (N, 2) and views ``wo`` (N, 3, the surface's frame):
+    its value, or with ``direction`` its light direction; ``bake``: a render/light_bake.py
+    LightBake."""
     from ..render.bake_playback import bake_textures
 
     ctx = ctx or create_gl_context()
@@ -164,6 +165,7 @@ def glsl_bake_lookup(bake, tri, bary, wo, ctx=None) -> np.ndarray:
     b = np.zeros((h * w, 4), dtype=np.float32)
     a[:n] = np.column_stack([tri, bary, np.ones(n)])
     b[:n, :3] = wo
+    b[:n, 3] = float(direction)
     vao, vbo = _quad(ctx, program)
     try:
         out = _draw_queries(ctx, vao, tables, a.reshape(h, w, 4), b.reshape(h, w, 4), (w, h))

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core.codecs.packed import TABLE_WIDTH, layout_stream
 from ..scene.bake_analysis import bake_needs, neighbours_by_name
+from ..scene.bake_points import pack_values
 from ..scene.lights import pack_lights
 from .light_bake import LightBake, mesh_digest, scene_digest
 
@@ -74,15 +75,16 @@ class BakePlayback:
 def bake_textures(bake: LightBake) -> tuple[np.ndarray, np.ndarray]:
     """The bake as shaders/bake_lib.glsl reads it: (rows, TABLE_WIDTH) float32 index stream
     ([V, where tri_points start, per triangle (cuts, first)…, tri_points…]) and (rows,
-    TABLE_WIDTH, 4) float32 values, texel point·V² + bin."""
+    TABLE_WIDTH, 4) float32 values, texel point·(V² + 1) + bin, then the point's light
+    direction (scene/bake_points.py ``pack_values``)."""
     a = bake.arrays
     pairs = np.column_stack([a["tri_cuts"], a["tri_first"]]).ravel()
     head = [bake.view_bins, 2 + len(pairs)]
     index = layout_stream(np.concatenate([head, pairs, a["tri_points"]]).astype(np.float64))
-    ratio = a["ratio"].reshape(-1, 3)
-    rows = max(1, -(-len(ratio) // TABLE_WIDTH))
+    packed = pack_values(a["ratio"], a["light_dir"]).reshape(-1, 4)
+    rows = max(1, -(-len(packed) // TABLE_WIDTH))
     values = np.zeros((rows * TABLE_WIDTH, 4), np.float32)
-    values[: len(ratio), :3] = ratio
+    values[: len(packed)] = packed
     return index, values.reshape(rows, TABLE_WIDTH, 4)
 
 
@@ -90,7 +92,8 @@ def texture_rows(bake: LightBake) -> int:
     """The taller of the two textures' heights (``bake_textures``) without building them."""
     a = bake.arrays
     index = 2 + 2 * len(a["tri_cuts"]) + len(a["tri_points"])
-    return -(-max(index, a["ratio"].shape[0] * a["ratio"].shape[1], 1) // TABLE_WIDTH)
+    values = a["ratio"].shape[0] * (a["ratio"].shape[1] + 1)
+    return -(-max(index, values, 1) // TABLE_WIDTH)
 
 
 class DigestCache:

@@ -47,7 +47,9 @@ from ..scene.lights import pack_lights
 #: (``mesh_first_triangle``, what playback finds a mesh's bake by) and two-level mesh digests.
 #: 3: an analytic material's values are its traced light over its unshadowed light (a ratio,
 #: kernels/include/btf_bake.h ``bake_over_unshadowed``), no longer the light itself.
-FORMAT_VERSION = 3
+#: 4: per point its light's direction (``light_dir``), the one a measured material's response
+#: is to (kernels/include/btf_bake.h ``bake_response``), no longer the normal.
+FORMAT_VERSION = 4
 SUFFIX = ".light_bake.npz"
 #: The grid's arrays as they travel (scene/bake_points.py BakeGrid); footprints stay behind.
 GRID_ARRAYS = (
@@ -59,6 +61,9 @@ GRID_ARRAYS = (
     "point_mesh",
     "mesh_first_triangle",
 )
+#: The bake's own arrays: per point and view bin its light per unit response, per point the
+#: direction of the light the response is to (scene/bake_points.py "Light direction").
+VALUE_ARRAYS = ("ratio", "light_dir")
 
 
 def default_path(blend_path: str | Path, scene_name: str) -> Path:
@@ -115,8 +120,9 @@ class MeshBake:
 
 @dataclass
 class LightBake:
-    """``arrays``: the grid's (GRID_ARRAYS) and ``ratio`` (P, V², 3) float32; ``knobs``: the
-    bake's settings (spacing, view_bins, samples, bounces, footprint)."""
+    """``arrays``: the grid's (GRID_ARRAYS), ``ratio`` (P, V², 3) float32 and ``light_dir``
+    (P, 3) float32 unit vectors (VALUE_ARRAYS); ``knobs``: the bake's settings (spacing,
+    view_bins, samples, bounces, footprint)."""
 
     arrays: dict[str, np.ndarray]
     knobs: dict
@@ -242,8 +248,9 @@ def load(path: str | Path) -> LightBake:
     try:
         with np.load(Path(path), allow_pickle=False) as data:
             meta = json.loads(bytes(data["meta"]).decode())
-            arrays = {k: data[k] for k in (*GRID_ARRAYS, "ratio")}
-        version = meta.get("version")
+            version = meta.get("version")
+            if version == FORMAT_VERSION:  # another version's arrays may differ
+                arrays = {k: data[k] for k in (*GRID_ARRAYS, *VALUE_ARRAYS)}
         if version == FORMAT_VERSION:
             bins = int(meta["knobs"]["view_bins"]) ** 2
             meshes = [MeshBake(**m) for m in meta["meshes"]]
@@ -265,8 +272,12 @@ def load(path: str | Path) -> LightBake:
         raise LightBakeError(
             f"{path}: light bake version {version}, this build reads {FORMAT_VERSION}; bake again"
         )
-    ratio = arrays["ratio"]
-    if ratio.shape != (len(arrays["positions"]), bins, 3) or not np.all(np.isfinite(ratio)):
+    ratio, light_dir, points = arrays["ratio"], arrays["light_dir"], len(arrays["positions"])
+    if (
+        ratio.shape != (points, bins, 3)
+        or light_dir.shape != (points, 3)
+        or not (np.all(np.isfinite(ratio)) and np.all(np.isfinite(light_dir)))
+    ):
         raise LightBakeError(f"{path}: its values do not match its points; bake again")
     return bake
 

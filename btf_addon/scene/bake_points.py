@@ -42,6 +42,12 @@ x1 = min(x0 + 1, V − 1) (y alike),
 bins (x0,y0), (x1,y0), (x0,y1), (x1,y1) weighted bilinearly by s − (x0, y0); wo with z ≤ 0 is
 read as z = GRAZING·|wo.xy| (a grazing view), one with no xy either as the normal; non-finite:
 bin 0 with weight 1. ``playback`` blends the 3 × 4 values with the products of the weights.
+
+Light direction: a bake also holds, per point, the unit direction its light mostly comes from
+(in its frame: x along the tangent, z along the normal). ``playback_direction`` blends the 3
+located points' directions with ``locate``'s weights and normalises the blend; a blend shorter
+than 1e-6 (or not finite) is the normal (0, 0, 1). ``pack_values`` lays a bake out as the GPU
+code reads it: per point V² + 1 float4, its bins' values (rgb) then its direction (xyz).
 """
 
 from __future__ import annotations
@@ -382,3 +388,28 @@ def playback(grid: BakeGrid, values: np.ndarray, tri, bu, bv, wo, view_bins: int
     ids, wl = locate(grid, tri, bu, bv)
     bins, wv = bin_weights(wo, view_bins)
     return np.einsum("na,nb,nabc->nc", wl, wv, values[ids[:, :, None], bins[:, None, :]])
+
+
+def playback_direction(grid: BakeGrid, light_dir: np.ndarray, tri, bu, bv) -> np.ndarray:
+    """light_dir (P, 3) unit directions → (N, 3) float64: the 3 located points' blend, made
+    unit (the module docstring's rule)."""
+    if light_dir.shape != (grid.point_count, 3):
+        raise ValueError(f"light_dir must be (points, 3), not {light_dir.shape}")
+    ids, wl = locate(grid, tri, bu, bv)
+    blend = np.einsum("na,nac->nc", wl, light_dir[ids].astype(np.float64))
+    length = np.linalg.norm(blend, axis=1, keepdims=True)
+    ok = np.isfinite(length) & (length > 1e-6)
+    return np.where(ok, blend / np.where(ok, length, 1.0), (0.0, 0.0, 1.0))
+
+
+def pack_values(ratio: np.ndarray, light_dir: np.ndarray) -> np.ndarray:
+    """(P, V², 3) values and (P, 3) light directions → (P, V² + 1, 4) float32, as the GPU code
+    reads a bake (kernels/include/btf_bake.h, shaders/bake_lib.glsl); one zero point for none
+    (a buffer is never empty)."""
+    points, bins = ratio.shape[:2]
+    if light_dir.shape != (points, 3):
+        raise ValueError(f"light_dir must be ({points}, 3), not {light_dir.shape}")
+    out = np.zeros((max(points, 1), bins + 1, 4), np.float32)
+    out[:points, :bins, :3] = ratio
+    out[:points, bins, :3] = light_dir
+    return out

@@ -22,7 +22,7 @@ from btf_addon.core.grid import UBO2003
 from btf_addon.core.sampling.envmap import Environment
 from btf_addon.render.bake_playback import BakeStatus, plan
 from btf_addon.render.light_bake import LightBake, MeshBake, mesh_digests, scene_digest
-from btf_addon.scene.bake_points import build_grid, playback
+from btf_addon.scene.bake_points import build_grid, playback, playback_direction
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
@@ -40,6 +40,9 @@ def _lookup_bake(rng, view_bins: int):
     assert set(grid.tri_cuts.tolist()) == {2, 3, 8}
     arrays = {k: getattr(grid, k) for k in (*GRID_KEYS, "mesh_first_triangle")}
     arrays["ratio"] = rng.uniform(0.5, 1.0, (grid.point_count, view_bins**2, 3)).astype(np.float32)
+    d = rng.normal(size=(grid.point_count, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 2.0  # within 60° of the normal: blends at least 0.5 long
+    arrays["light_dir"] = (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
     meshes = [MeshBake(n, "", True, True, True, "") for n in ("Sphere", "Plane")]
     return grid, LightBake(arrays, {"view_bins": view_bins}, meshes, "")
 
@@ -99,6 +102,11 @@ def test_glsl_lookup_matches_the_numpy_playback(gl_ctx, view_bins):
     # values in [0.5, 1]), four orders of magnitude above the tolerance.
     assert np.all(np.isfinite(out))
     np.testing.assert_allclose(out, expected, rtol=1e-5, atol=0)
+    # The light direction (a normalised blend at least 0.5 long): a few float32 ulp; a wrong
+    # vertex or weight moves it by ~0.1.
+    got = glsl_bake_lookup(bake, tri, bary, wo, gl_ctx, direction=True)
+    want = playback_direction(grid, bake.arrays["light_dir"], tri, bary[:, 0], bary[:, 1])
+    np.testing.assert_allclose(got, want, rtol=0, atol=2e-6)
 
 
 # --- the drawer: a baked frame ----------------------------------------------------------------

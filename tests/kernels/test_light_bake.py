@@ -23,7 +23,13 @@ from btf_addon.core.grid import UBO2003
 from btf_addon.core.sampling.btf_importance import hemisphere_to_square
 from btf_addon.core.sampling.envmap import Environment
 from btf_addon.render.accuracy.ladder import relative_rmse
-from btf_addon.scene.bake_points import GRAZING, build_grid, playback
+from btf_addon.scene.bake_points import (
+    GRAZING,
+    build_grid,
+    pack_values,
+    playback,
+    playback_direction,
+)
 from btf_addon.scene.primitives import plane, uv_sphere
 from btf_addon.scene.scene import Camera, Material, Scene, look_at
 
@@ -37,9 +43,11 @@ __kernel void lookup_test(__global const int *tri_cuts, __global const int *tri_
                           __global float *out)
 {
   int i = get_global_id(0);
+  float3 light_dir;
   float3 v = bake_lookup(tri_cuts, tri_first, tri_points, values, view_bins, tri[i],
-                         bary[2 * i], bary[2 * i + 1], vload3(i, wo));
-  vstore3(v, i, out);
+                         bary[2 * i], bary[2 * i + 1], vload3(i, wo), &light_dir);
+  vstore3(v, 2 * i, out);
+  vstore3(light_dir, 2 * i + 1, out);
 }
 
 __kernel void square_test(__global const float *wo, __global float *out)
@@ -144,9 +152,9 @@ def test_bake_lookup_matches_numpy_playback(cl_context, program, lookup_grid, vi
     # values in [0.5, 1]: the result is a convex blend of them, so ≥ 0.5 and a relative
     # tolerance is meaningful
     values = rng.uniform(0.5, 1.0, (grid.point_count, bins, 3)).astype(np.float32)
-    rows = np.zeros((grid.point_count, bins, 4), np.float32)
-    rows[..., :3] = values
-    out = np.empty((n, 3), np.float32)
+    directions = _light_directions(rng, grid.point_count)
+    rows = pack_values(values, directions)
+    out = np.empty((n, 2, 3), np.float32)
     run_kernel(
         cl_context,
         cl.Kernel(program, "lookup_test"),
@@ -170,7 +178,51 @@ def test_bake_lookup_matches_numpy_playback(cl_context, program, lookup_grid, vi
     # at most; 1e-5 leaves room for other devices' atan2 while any wrong vertex, bin or cell
     # (differences of ~0.1 between random values) fails by four orders of magnitude.
     assert np.all(np.isfinite(out))
-    np.testing.assert_allclose(out, expected, rtol=1e-5, atol=0)
+    np.testing.assert_allclose(out[:, 0], expected, rtol=1e-5, atol=0)
+    # The light direction: a normalised blend of unit vectors within 60° of the normal (so at
+    # least 0.5 long): float32 against float64, a few ulp. Measured below 3e-7; a wrong vertex
+    # or weight moves it by ~0.1.
+    want = playback_direction(grid, directions, tri, bu, bv)
+    np.testing.assert_allclose(out[:, 1], want, rtol=0, atol=2e-6)
+
+
+def _light_directions(rng, points: int) -> np.ndarray:
+    """(points, 3) float32 unit directions within 60° of the normal, as a bake stores them."""
+    d = rng.normal(size=(points, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 2.0
+    return (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+
+
+def test_bake_lookup_light_direction_without_one_is_the_normal(cl_context, program, lookup_grid):
+    """Directions that are all zero (or cancel) blend to nothing: the lookup answers the
+    normal, the direction bakes before FORMAT_VERSION 4 were to, never a NaN."""
+    import pyopencl as cl
+
+    grid = lookup_grid
+    rng = np.random.default_rng(3)
+    tri, bu, bv = _queries(rng, grid)
+    n = len(tri)
+    values = np.ones((grid.point_count, 1, 3), np.float32)
+    out = np.empty((n, 2, 3), np.float32)
+    run_kernel(
+        cl_context,
+        cl.Kernel(program, "lookup_test"),
+        n,
+        [
+            grid.tri_cuts.astype(np.int32),
+            grid.tri_first.astype(np.int32),
+            grid.tri_points.astype(np.int32),
+            pack_values(values, np.zeros((grid.point_count, 3), np.float32)).ravel(),
+            np.int32(1),
+            tri,
+            np.column_stack([bu, bv]).ravel(),
+            _hemisphere(rng, n).astype(np.float32).ravel(),
+        ],
+        [out],
+    )
+    assert np.array_equal(out[:, 1], np.tile(np.float32([0, 0, 1]), (n, 1)))
+    want = playback_direction(grid, np.zeros((grid.point_count, 3)), tri, bu, bv)
+    assert np.array_equal(want, np.tile([0.0, 0.0, 1.0], (n, 1)))
 
 
 def test_bake_square_matches_hemisphere_to_square(cl_context, program):
@@ -355,15 +407,37 @@ def test_a_bake_cancelled_in_its_first_pass_is_empty(lambert, monkeypatch):
 
     def stop(fraction: float) -> bool:
         seen.append(fraction)
-        return False
+        return fraction == 0.0  # the light directions (one launch here) go on
 
     baked = bake.bake_light(renderer, grid.footprint_tri, grid.footprint_bary, 3, samples=64,
                             max_bounces=0, progress=stop)  # fmt: skip
-    assert seen == [64 / (4 * 169)]  # stopped in the middle of pass 0
+    assert seen == [0.0, 64 / (4 * 169)]  # stopped in the middle of pass 0
     # nothing finished: no samples and a ratio of 0 (0 light over 0 response, bake._finish)
     assert baked.samples == 0
     assert baked.ratio.shape == (grid.point_count, 9, 3)
     np.testing.assert_array_equal(baked.ratio, 0.0)
+
+
+def test_a_bake_cancelled_while_finding_light_directions_is_empty(lambert):
+    """The light directions come first (cl/bake.py light_directions), their launches report
+    progress 0 and can be cancelled: nothing is baked, and no direction is half-found (the
+    normal everywhere, as a bake with none)."""
+    from btf_addon.cl import bake
+
+    renderer, scene = lambert
+    grid = _grid(scene, 0.25, footprint=4)
+    seen = []
+
+    def stop(fraction: float) -> bool:
+        seen.append(fraction)
+        return False
+
+    baked = bake.bake_light(renderer, grid.footprint_tri, grid.footprint_bary, 3, samples=64,
+                            max_bounces=0, progress=stop)  # fmt: skip
+    assert seen == [0.0]
+    assert baked.samples == 0
+    np.testing.assert_array_equal(baked.ratio, 0.0)
+    np.testing.assert_array_equal(baked.light_dir, np.tile([0, 0, 1], (grid.point_count, 1)))
 
 
 def _ray_box(origins: np.ndarray, dirs: np.ndarray, half: float) -> np.ndarray:

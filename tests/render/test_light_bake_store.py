@@ -14,6 +14,7 @@ from btf_addon.render import light_bake
 from btf_addon.render.light_bake import (
     FORMAT_VERSION,
     GRID_ARRAYS,
+    VALUE_ARRAYS,
     LightBake,
     LightBakeError,
     MeshBake,
@@ -32,8 +33,9 @@ KNOBS = {
 
 
 def _arrays(rng: np.random.Generator, points: int = 6, bins: int = 4) -> dict[str, np.ndarray]:
-    """A grid's arrays of ``points`` points over two triangles, and a (P, bins, 3) ratio of
-    arbitrary float32 values (every bit of them must survive the round trip)."""
+    """A grid's arrays of ``points`` points over two triangles, a (P, bins, 3) ratio of
+    arbitrary float32 values (every bit of them must survive the round trip) and unit light
+    directions."""
     normals = rng.normal(size=(points, 3)).astype(np.float32)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     return {
@@ -46,6 +48,7 @@ def _arrays(rng: np.random.Generator, points: int = 6, bins: int = 4) -> dict[st
         # _meshes(): Ground triangle 0, Ball triangle 1, Lamp post and Moon none
         "mesh_first_triangle": np.array([0, 1, 2, 2, 2], np.int32),
         "ratio": rng.random((points, bins, 3)).astype(np.float32),
+        "light_dir": normals.copy(),
     }
 
 
@@ -137,7 +140,7 @@ def test_save_then_load_gives_the_same_bake(tmp_path, rng):
     path = tmp_path / "scene.Scene.light_bake.npz"
     assert bake.save(path) == path
     back = load(path)
-    assert set(back.arrays) == set(GRID_ARRAYS) | {"ratio"}
+    assert set(back.arrays) == set(GRID_ARRAYS) | set(VALUE_ARRAYS) == set(bake.arrays)
     for name, array in bake.arrays.items():
         got = back.arrays[name]
         assert got.dtype == array.dtype and got.shape == array.shape, name
@@ -281,7 +284,18 @@ def test_another_version_is_refused(tmp_path, rng):
     assert f"version {FORMAT_VERSION + 1}" in str(error)
 
 
-@pytest.mark.parametrize("missing", ["ratio", "positions", "meta"])
+def test_the_last_version_is_refused_by_its_version(tmp_path, rng):
+    """A version-3 file has no light directions: what is refused is its version (with what
+    to do), not a missing array."""
+    bake = _bake(rng)
+    path = tmp_path / "v3.light_bake.npz"
+    meta = {**bake.report(), "scene_digest": bake.scene_digest, "version": 3}
+    _write_npz(path, meta, {k: v for k, v in bake.arrays.items() if k != "light_dir"})
+    error = _assert_refused(path)
+    assert "version 3" in str(error) and "bake again" in str(error)
+
+
+@pytest.mark.parametrize("missing", ["ratio", "light_dir", "positions", "meta"])
 def test_a_file_missing_an_array_is_refused(tmp_path, rng, missing):
     bake = _bake(rng)
     meta = {**bake.report(), "scene_digest": bake.scene_digest}
@@ -316,10 +330,19 @@ def test_ratio_not_matching_the_points_is_refused(tmp_path, rng, ratio_shape):
     assert "do not match its points" in str(error)
 
 
+@pytest.mark.parametrize("shape", [(7, 3), (5, 3), (6, 4), (6,)], ids=str)
+def test_light_directions_not_matching_the_points_are_refused(tmp_path, rng, shape):
+    bake = _bake(rng)  # 6 points
+    bake.arrays["light_dir"] = rng.random(shape).astype(np.float32)
+    error = _assert_refused(bake.save(tmp_path / "d.light_bake.npz"))
+    assert "do not match its points" in str(error)
+
+
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
-def test_non_finite_ratio_is_refused(tmp_path, rng, bad):
+@pytest.mark.parametrize("array", ["ratio", "light_dir"])
+def test_non_finite_values_are_refused(tmp_path, rng, bad, array):
     bake = _bake(rng)
-    bake.arrays["ratio"][3, 1, 2] = bad
+    bake.arrays[array].reshape(6, -1)[3, 2] = bad
     path = bake.save(tmp_path / "n.light_bake.npz")
     _assert_refused(path)
 
