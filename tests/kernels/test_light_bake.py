@@ -136,9 +136,34 @@ def lookup_grid() -> object:
     return grid
 
 
+def _lookup(cl_context, program, grid, rows, tri, bu, bv, wo) -> np.ndarray:
+    """(N, 2, 3) float32: the kernel's lookup_test of packed ``rows`` (P, V² + 1, 4) at the
+    queries: per query its value, then its light direction."""
+    import pyopencl as cl
+
+    view_bins = round(np.sqrt(rows.shape[1] - 1))
+    out = np.empty((len(tri), 2, 3), np.float32)
+    run_kernel(
+        cl_context,
+        cl.Kernel(program, "lookup_test"),
+        len(tri),
+        [
+            grid.tri_cuts.astype(np.int32),
+            grid.tri_first.astype(np.int32),
+            grid.tri_points.astype(np.int32),
+            rows.ravel(),
+            np.int32(view_bins),
+            tri,
+            np.column_stack([bu, bv]).ravel(),
+            np.asarray(wo, np.float32).ravel(),
+        ],
+        [out],
+    )
+    return out
+
+
 @pytest.mark.parametrize("view_bins", [1, 3, 5])
 def test_bake_lookup_matches_numpy_playback(cl_context, program, lookup_grid, view_bins):
-    import pyopencl as cl
 
     grid = lookup_grid
     rng = np.random.default_rng(11 + view_bins)
@@ -153,24 +178,7 @@ def test_bake_lookup_matches_numpy_playback(cl_context, program, lookup_grid, vi
     # tolerance is meaningful
     values = rng.uniform(0.5, 1.0, (grid.point_count, bins, 3)).astype(np.float32)
     directions = _light_directions(rng, grid.point_count)
-    rows = pack_values(values, directions)
-    out = np.empty((n, 2, 3), np.float32)
-    run_kernel(
-        cl_context,
-        cl.Kernel(program, "lookup_test"),
-        n,
-        [
-            grid.tri_cuts.astype(np.int32),
-            grid.tri_first.astype(np.int32),
-            grid.tri_points.astype(np.int32),
-            rows.ravel(),
-            np.int32(view_bins),
-            tri,
-            np.column_stack([bu, bv]).ravel(),
-            wo.ravel(),
-        ],
-        [out],
-    )
+    out = _lookup(cl_context, program, grid, pack_values(values, directions), tri, bu, bv, wo)
     expected = playback(grid, values.astype(np.float64), tri, bu, bv, wo, view_bins)
     # float32 against float64 on the same float32 inputs: bu·n and the square's atan2 in
     # float32 (a few ulp: up to ~1e-6 of a cell or a bin's width, which moves a blend of
@@ -196,30 +204,14 @@ def _light_directions(rng, points: int) -> np.ndarray:
 def test_bake_lookup_light_direction_without_one_is_the_normal(cl_context, program, lookup_grid):
     """Directions that are all zero (or cancel) blend to nothing: the lookup answers the
     normal, the direction bakes before FORMAT_VERSION 4 were to, never a NaN."""
-    import pyopencl as cl
 
     grid = lookup_grid
     rng = np.random.default_rng(3)
     tri, bu, bv = _queries(rng, grid)
     n = len(tri)
     values = np.ones((grid.point_count, 1, 3), np.float32)
-    out = np.empty((n, 2, 3), np.float32)
-    run_kernel(
-        cl_context,
-        cl.Kernel(program, "lookup_test"),
-        n,
-        [
-            grid.tri_cuts.astype(np.int32),
-            grid.tri_first.astype(np.int32),
-            grid.tri_points.astype(np.int32),
-            pack_values(values, np.zeros((grid.point_count, 3), np.float32)).ravel(),
-            np.int32(1),
-            tri,
-            np.column_stack([bu, bv]).ravel(),
-            _hemisphere(rng, n).astype(np.float32).ravel(),
-        ],
-        [out],
-    )
+    rows = pack_values(values, np.zeros((grid.point_count, 3), np.float32))
+    out = _lookup(cl_context, program, grid, rows, tri, bu, bv, _hemisphere(rng, n))
     assert np.array_equal(out[:, 1], np.tile(np.float32([0, 0, 1]), (n, 1)))
     want = playback_direction(grid, np.zeros((grid.point_count, 3)), tri, bu, bv)
     assert np.array_equal(want, np.tile([0.0, 0.0, 1.0], (n, 1)))
