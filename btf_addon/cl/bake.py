@@ -120,11 +120,7 @@ def light_directions(
     point costs a few hundred shadow rays: a few percent of its bake), each followed by
     ``progress(0.0)``; None where it answers False (cancelled)."""
     cl, ctx = renderer.cl, renderer.ctx
-    plain = renderer.scene.environment.tables
-    tables = [
-        renderer._buffer(a.ravel(), np.float32)
-        for a in (plain.row_cdf, plain.col_cdf, plain.row_pdf, plain.col_pdf)
-    ]
+    tables = renderer.plain_env_tables()
     kernel = ArgumentKernel(cl.Kernel(renderer.program, "bake_light_direction"))
     sums = np.zeros((points, 4), np.float32)
     step = 4096

@@ -358,13 +358,20 @@ class CLRenderer:
             ]
         return [*self._pyramid, self.scene_lights, self.scene_light_count, *self.open_bvh()]
 
-    def _next_event_tables(self) -> list:
+    def plain_env_tables(self) -> list:
+        """The World's plain tables (envmap.py ``Environment.tables``, whose draws reach every
+        direction with light) as row_cdf, col_cdf, row_pdf, col_pdf buffers: the light bake's
+        direction draws (cl/bake.py). The upload an uncompensated Sampled render uses."""
+        return self._next_event_tables(compensated=False)[:4]
+
+    def _next_event_tables(self, compensated: bool | None = None) -> list:
         """The environment's tables for the Sampled mode's draws, exactly those of
         core/sampling/envmap.py, and its sun's (the kernel's sun_cdf, sun_pixels, a
         per-pixel probability that is 0 outside the sun, the sun's pixel count (0 for none)
         and its share of the compensated weight) and the lobe window's block sums and block
-        size (0 for none), uploaded on first use."""
-        compensated = bool(self.mis_compensation)
+        size (0 for none), uploaded on first use. ``compensated``: None, as the renderer's
+        ``mis_compensation`` says."""
+        compensated = bool(self.mis_compensation if compensated is None else compensated)
         with_sun = compensated and bool(self.sun_sampling)
         key = (compensated, with_sun, with_sun and bool(self.lobe_window))
         if key not in self._env_tables:
